@@ -1,0 +1,66 @@
+# Bootstrap, run and test affine_joint_sim in a Python 3.12 virtual environment.
+# `make venv` is idempotent: it reinstalls only when setup.py or the constraints change.
+
+# DDS discovery stays on loopback for every process started from here.
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+
+VENV := .venv
+PY := $(VENV)/bin/python
+CONSTRAINTS := constraints.txt
+STAMP := $(VENV)/.installed
+LOCK_VENV := .venv-lock
+
+# Prints the first interpreter that really is Python 3.12: `python3.12` on PATH (a pyenv shim
+# there may still fail to resolve, so each candidate is run), else the newest
+# ~/.pyenv/versions/3.12.x.
+FIND_PY312 = for p in python3.12 $$(ls -d $$HOME/.pyenv/versions/3.12.*/bin/python3.12 \
+	2>/dev/null | sort -rV); do \
+	  $$p -c 'import sys; sys.exit(sys.version_info[:2] != (3, 12))' 2>/dev/null \
+	    && { echo $$p; exit 0; }; \
+	done; \
+	echo 'error: Python 3.12 not found; install it (pyenv install 3.12, or a system python3.12)' >&2; \
+	exit 1
+
+# setuptools comes from the constraints and builds in the venv (no isolated build environment),
+# so every tool that touches the install is pinned.
+define install_project
+	$(1) -m pip install -q $(2) setuptools
+	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test]'
+endef
+
+.PHONY: venv run test bench lock clean
+
+venv: $(STAMP)
+
+$(STAMP): setup.py $(CONSTRAINTS)
+	@test -x $(PY) || { py=$$($(FIND_PY312)) && echo "Creating $(VENV) with $$py" \
+	  && $$py -m venv $(VENV); }
+	@echo 'Installing affine_joint_sim[test] into $(VENV) under $(CONSTRAINTS)'
+	$(call install_project,$(PY),-c $(CONSTRAINTS))
+	@touch $@
+
+run: venv
+	$(VENV)/bin/affine-joint-sim run --scene pendulum --torque shoulder=2.0 --duration 2.0
+
+test: venv
+	$(PY) -m pytest -q test
+
+bench: venv
+	$(VENV)/bin/affine-joint-sim bench
+
+# Re-resolves every dependency to its newest allowed version in a scratch venv and pins the
+# result; `make venv` then brings $(VENV) to it.
+lock:
+	rm -rf $(LOCK_VENV)
+	py=$$($(FIND_PY312)) && $$py -m venv $(LOCK_VENV)
+	$(call install_project,$(LOCK_VENV)/bin/python,)
+	{ echo '# Known-good versions of every distribution in the venv; regenerate with `make lock`.'; \
+	  echo '# The unprefixed ROS names (rclpy, std_msgs, ...) are metadata inside the ros-* wheels.'; \
+	  $(LOCK_VENV)/bin/python -m pip freeze --all --exclude-editable --exclude pip; \
+	} > $(CONSTRAINTS)
+	rm -rf $(LOCK_VENV)
+
+# Leaves the Warp kernel cache (~/.cache/warp) alone: rebuilding it costs minutes.
+clean:
+	rm -rf $(VENV) $(LOCK_VENV) .pytest_cache build *.egg-info
+	find . -name __pycache__ -type d -prune -exec rm -rf {} +

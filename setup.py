@@ -1,0 +1,41 @@
+"""Build and install affine_joint_sim as an ament_python package that plain pip can install."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'affine_joint_sim'
+share = 'share/' + package_name
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    description='Affine-body robot joint simulation in NVIDIA Warp with a ROS 2 Jazzy node',
+    license='Apache-2.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    # Installed only by a non-editable `pip install .` (or colcon); an editable install keeps
+    # msg_configs in the source tree, where the code looks as well.
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        (share, ['package.xml']),
+        (share + '/msg_configs', glob('msg_configs/*.yaml') + glob('msg_configs/*.xml')),
+        (share + '/msg_configs/scenes', glob('msg_configs/scenes/*.yaml')),
+    ],
+    python_requires='>=3.12',
+    install_requires=[
+        # Only the ros-jazzy-* names: the unprefixed ros-* distributions are another release.
+        # rclpy's wheel links librmw_fastrtps_cpp directly, hence the required extra.
+        'ros-jazzy-rclpy[fastrtps]',
+        'ros-jazzy-rmw-fastrtps-cpp',
+        'ros-jazzy-common-interfaces',
+        'warp-lang>=1.19,<2',
+        'numpy',
+        'rosbags>=0.11,<0.12',
+        'pyyaml',
+        'pydantic>=2',
+    ],
+    extras_require={'test': ['pytest']},
+    entry_points={
+        'console_scripts': ['affine-joint-sim = affine_joint_sim.cli:main'],
+    },
+)
