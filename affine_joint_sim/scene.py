@@ -1,0 +1,329 @@
+"""Scene schema: loading, validation and serialisation of scene files (design.md §3).
+
+A scene is YAML (or a dict) in SI units with world z up (REP 103). Every bad input fails at
+load with a ``SceneError`` that names the source, the key path (``joints[1].parent``) and what
+is valid; unknown keys are errors, never silently ignored.
+"""
+
+import math
+import re
+from pathlib import Path
+from typing import Annotated, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+__all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Shape', 'Solver', 'Orientation']
+
+NAME_PATTERN = r'^[A-Za-z_][A-Za-z0-9_]*$'
+
+PositiveFloat = Annotated[float, Field(gt=0.0)]
+Vec3 = tuple[float, float, float]
+
+
+class SceneError(ValueError):
+    """A scene that cannot be loaded; the message lists every problem with its key path."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra='forbid', allow_inf_nan=False, frozen=True)
+
+
+class Cylinder(_Strict):
+    """Solid cylinder whose axis is the body z axis [m]."""
+
+    radius: PositiveFloat
+    length: PositiveFloat
+
+
+class Sphere(_Strict):
+    """Solid sphere [m]."""
+
+    radius: PositiveFloat
+
+
+class Shape(_Strict):
+    """Exactly one primitive: ``box`` (full side lengths [m]), ``cylinder`` or ``sphere``."""
+
+    box: tuple[PositiveFloat, PositiveFloat, PositiveFloat] | None = None
+    cylinder: Cylinder | None = None
+    sphere: Sphere | None = None
+
+    @model_validator(mode='after')
+    def _exactly_one(self):
+        given = [k for k in ('box', 'cylinder', 'sphere') if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f'give exactly one of box, cylinder, sphere (got {given or "none"})')
+        return self
+
+    @property
+    def kind(self) -> str:
+        """Primitive name: 'box', 'cylinder' or 'sphere'."""
+        return next(k for k in ('box', 'cylinder', 'sphere') if getattr(self, k) is not None)
+
+
+class Orientation(_Strict):
+    """Initial orientation, world frame: ``rpy`` [rad] (fixed-axis x-y-z, REP 103) or ``quat_xyzw``."""
+
+    rpy: Vec3 | None = None
+    quat_xyzw: tuple[float, float, float, float] | None = None
+
+    @model_validator(mode='after')
+    def _exactly_one(self):
+        if (self.rpy is None) == (self.quat_xyzw is None):
+            raise ValueError('give exactly one of rpy, quat_xyzw')
+        if self.quat_xyzw is not None:
+            norm = math.sqrt(sum(c * c for c in self.quat_xyzw))
+            if abs(norm - 1.0) > 1e-3:
+                raise ValueError(f'quat_xyzw must be a unit quaternion (norm {norm:.6g}, '
+                                 'valid within 1e-3 of 1)')
+        return self
+
+
+class Body(_Strict):
+    """An affine body; its rest frame is centred at its centre of mass (physics_spec preface §1)."""
+
+    name: Annotated[str, Field(pattern=NAME_PATTERN)]
+    shape: Shape
+    density: PositiveFloat | None = None
+    mass: PositiveFloat | None = None
+    position: Vec3 = (0.0, 0.0, 0.0)
+    orientation: Orientation | None = None
+    linear_velocity: Vec3 = (0.0, 0.0, 0.0)
+    angular_velocity: Vec3 = (0.0, 0.0, 0.0)
+    fixed: bool = False
+    kappa: PositiveFloat = 1.0e8
+
+    @model_validator(mode='after')
+    def _density_or_mass(self):
+        if (self.density is None) == (self.mass is None):
+            raise ValueError('give exactly one of density [kg/m^3] or mass [kg]')
+        return self
+
+
+class Joint(_Strict):
+    """A revolute joint (UID 18) with its scalar external torque (UID 668)."""
+
+    name: Annotated[str, Field(pattern=NAME_PATTERN)]
+    type: Literal['revolute'] = 'revolute'
+    parent: str
+    child: str
+    x0: Vec3
+    x1: Vec3
+    strength_ratio: PositiveFloat = 100.0
+    torque: float = 0.0
+    enabled: bool = True
+    torque_model: Literal['lever_arm', 'generalized'] = 'lever_arm'
+    angle_mode: Literal['wrapped', 'continuous'] = 'wrapped'
+    effort_limit: Annotated[float, Field(gt=0.0, allow_inf_nan=True)] = math.inf
+
+    @model_validator(mode='after')
+    def _finite_limit(self):
+        if math.isnan(self.effort_limit):
+            raise ValueError('effort_limit must be a positive number or .inf, not NaN')
+        return self
+
+
+class Solver(_Strict):
+    """Speed/accuracy knobs (physics_spec preface §2, §7)."""
+
+    integrator: Literal['bdf1', 'bdf2'] = 'bdf1'
+    newton_tol: PositiveFloat = 1.0e-4
+    newton_max_iter: Annotated[int, Field(ge=1, le=1000)] = 32
+    line_search: bool = True
+    precision: Literal['float64', 'float32'] = 'float64'
+
+
+class Scene(_Strict):
+    """A validated scene. Build with ``Scene.from_yaml(path)`` or ``Scene.from_dict(d)``."""
+
+    name: Annotated[str, Field(min_length=1)] = 'scene'
+    dt: PositiveFloat = 0.01
+    gravity: Vec3 = (0.0, 0.0, -9.81)
+    solver: Solver = Solver()
+    bodies: Annotated[list[Body], Field(min_length=1)]
+    joints: list[Joint] = []
+
+    @classmethod
+    def from_dict(cls, data, source: str = '<dict>') -> 'Scene':
+        """Validate a plain dict (as read from YAML); raise SceneError naming ``source``."""
+        if not isinstance(data, dict):
+            raise SceneError(f'{source}: a scene must be a mapping, got {type(data).__name__}')
+        try:
+            scene = cls.model_validate(data)
+        except ValidationError as exc:
+            raise SceneError(_format_errors(source, [
+                (_key_path(err['loc']), _message(err)) for err in exc.errors()])) from None
+        problems = scene._cross_check()
+        if problems:
+            raise SceneError(_format_errors(source, problems))
+        return scene
+
+    @classmethod
+    def from_yaml(cls, path) -> 'Scene':
+        """Load and validate a scene file."""
+        path = Path(path)
+        try:
+            text = path.read_text()
+        except OSError as exc:
+            raise SceneError(f'{path}: cannot read scene file ({exc.strerror})') from None
+        return cls.from_yaml_text(text, source=str(path))
+
+    @classmethod
+    def from_yaml_text(cls, text: str, source: str = '<yaml>') -> 'Scene':
+        """Validate a scene given as YAML text (e.g. the copy stored in a bag)."""
+        try:
+            data = yaml.load(text, Loader=_SceneLoader)
+        except yaml.YAMLError as exc:
+            raise SceneError(f'{source}: not valid YAML: {exc}') from None
+        return cls.from_dict(data, source=source)
+
+    def to_yaml(self) -> str:
+        """The scene as YAML text that ``from_yaml_text`` reads back to an equal scene."""
+        return yaml.safe_dump(self.model_dump(mode='json', exclude_none=True), sort_keys=False)
+
+    def body_index(self, name: str) -> int:
+        """Index of a body by name (KeyError naming the valid ones)."""
+        return _index(name, [b.name for b in self.bodies], 'body')
+
+    def joint_index(self, name: str) -> int:
+        """Index of a joint by name (KeyError naming the valid ones)."""
+        return _index(name, [j.name for j in self.joints], 'joint')
+
+    def _cross_check(self) -> list[tuple[str, str]]:
+        """Checks across entries: unique names, known parents, distinct axis points, a forest."""
+        problems = []
+        body_names = [b.name for b in self.bodies]
+        problems += _duplicates('bodies', body_names)
+        problems += _duplicates('joints', [j.name for j in self.joints])
+        valid = ', '.join(body_names)
+        for i, joint in enumerate(self.joints):
+            for key in ('parent', 'child'):
+                if getattr(joint, key) not in body_names:
+                    problems.append((f'joints[{i}].{key}',
+                                     f'unknown body {getattr(joint, key)!r}; valid: {valid}'))
+            if joint.parent == joint.child:
+                problems.append((f'joints[{i}].child', 'parent and child must differ'))
+            if math.dist(joint.x0, joint.x1) < 1e-9:
+                problems.append((f'joints[{i}].x1', 'x1 must differ from x0 (the axis is x1 - x0)'))
+        if not problems:
+            problems += self._closed_loops()
+        return problems
+
+    def _closed_loops(self) -> list[tuple[str, str]]:
+        """Joints must form a forest: report the joints of the first closed loop found."""
+        root = list(range(len(self.bodies)))
+
+        def find(i):
+            while root[i] != i:
+                root[i] = root[root[i]]
+                i = root[i]
+            return i
+
+        for i, joint in enumerate(self.joints):
+            a, b = find(self.body_index(joint.parent)), find(self.body_index(joint.child))
+            if a == b:
+                loop = self._path_joints(joint.parent, joint.child, upto=i) + [joint.name]
+                return [(f'joints[{i}]', 'joints form a closed loop (' + ', '.join(loop) +
+                         '); only trees of revolute joints are supported')]
+            root[a] = b
+        return []
+
+    def _path_joints(self, start: str, goal: str, upto: int) -> list[str]:
+        """Names of the joints on the path start -> goal among joints[:upto] (a forest)."""
+        edges = {}
+        for joint in self.joints[:upto]:
+            edges.setdefault(joint.parent, []).append((joint.child, joint.name))
+            edges.setdefault(joint.child, []).append((joint.parent, joint.name))
+        stack, seen = [(start, [])], {start}
+        while stack:
+            body, path = stack.pop()
+            if body == goal:
+                return path
+            for other, name in edges.get(body, []):
+                if other not in seen:
+                    seen.add(other)
+                    stack.append((other, path + [name]))
+        return []
+
+
+class _SceneLoader(yaml.SafeLoader):
+    """SafeLoader that also reads ``1.0e8`` (no exponent sign) as a float, unlike YAML 1.1."""
+
+
+_SceneLoader.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'''^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                   |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                   |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                   |[-+]?\.(?:inf|Inf|INF)
+                   |\.(?:nan|NaN|NAN))$''', re.X),
+    list('-+0123456789.'))
+
+
+def _index(name: str, names: list[str], what: str) -> int:
+    try:
+        return names.index(name)
+    except ValueError:
+        raise KeyError(f'unknown {what} {name!r}; valid: {", ".join(names) or "none"}') from None
+
+
+def _duplicates(section: str, names: list[str]) -> list[tuple[str, str]]:
+    seen, problems = {}, []
+    for i, name in enumerate(names):
+        if name in seen:
+            problems.append((f'{section}[{i}].name',
+                             f'duplicate name {name!r} (also {section}[{seen[name]}])'))
+        seen.setdefault(name, i)
+    return problems
+
+
+def _key_path(loc) -> str:
+    path = ''
+    for part in loc:
+        if isinstance(part, int):
+            path += f'[{part}]'
+        elif part in ('function-after', 'tagged-union') or '[' in str(part):
+            continue
+        else:
+            path += ('.' if path else '') + str(part)
+    return path or '<top>'
+
+
+def _message(err) -> str:
+    if err['type'] == 'extra_forbidden':
+        return f'unknown key; valid keys here: {_valid_keys(err["loc"][:-1])}'
+    if err['type'] == 'finite_number':
+        return 'must be a finite number (NaN and Inf are not allowed)'
+    msg = err['msg'].removeprefix('Value error, ')
+    if err['type'] == 'string_pattern_mismatch':
+        msg = 'must match [A-Za-z_][A-Za-z0-9_]* (it becomes a ROS topic token)'
+    return f'{msg} (got {err["input"]!r})' if 'input' in err and err['type'] != 'missing' \
+        and not isinstance(err['input'], (dict, list)) else msg
+
+
+def _valid_keys(loc) -> str:
+    """The field names allowed at ``loc`` (a pydantic location), for unknown-key errors."""
+    model = Scene
+    for part in loc:
+        if isinstance(part, int):
+            continue
+        annotation = model.model_fields[part].annotation
+        model = next((t for t in _flatten(annotation)
+                      if isinstance(t, type) and issubclass(t, BaseModel)), None)
+        if model is None:
+            return '?'
+    return ', '.join(model.model_fields)
+
+
+def _flatten(annotation):
+    args = getattr(annotation, '__args__', None)
+    if not args:
+        return [annotation]
+    return [t for a in args for t in _flatten(a)]
+
+
+def _format_errors(source: str, problems: list[tuple[str, str]]) -> str:
+    lines = [f'{source}: invalid scene ({len(problems)} problem{"s" * (len(problems) > 1)})']
+    lines += [f'  {path}: {message}' for path, message in problems]
+    return '\n'.join(lines)

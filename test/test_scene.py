@@ -1,0 +1,94 @@
+"""Scene loading and validation: every bad input names the file, key path and valid values."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from affine_joint_sim import Scene, SceneError
+
+SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
+
+BASE = '''
+name: test
+bodies:
+  - {name: base, shape: {box: [0.2, 0.2, 0.2]}, density: 1000.0, fixed: true}
+  - {name: link, shape: {box: [0.1, 0.1, 1.0]}, mass: 1.0, position: [0, 0, -0.5]}
+joints:
+  - {name: hinge, parent: base, child: link, x0: [-0.05, 0, 0], x1: [0.05, 0, 0]}
+'''
+
+
+def load(text, source='scene.yaml'):
+    return Scene.from_yaml_text(text, source=source)
+
+
+def error_of(text):
+    with pytest.raises(SceneError) as info:
+        load(text)
+    return str(info.value)
+
+
+@pytest.mark.parametrize('path', sorted(SCENES.glob('*.yaml')), ids=lambda p: p.stem)
+def test_packaged_scenes_load_and_round_trip(path):
+    scene = Scene.from_yaml(path)
+    assert Scene.from_yaml_text(scene.to_yaml()) == scene
+
+
+def test_defaults_and_exponent_without_sign():
+    scene = load(BASE.replace('mass: 1.0,', 'mass: 1.0, kappa: 1.0e8,'))
+    assert scene.bodies[1].kappa == 1.0e8 and isinstance(scene.bodies[1].kappa, float)
+    assert scene.dt == 0.01 and scene.gravity == (0.0, 0.0, -9.81)
+    joint = scene.joints[0]
+    assert (joint.strength_ratio, joint.torque_model, joint.angle_mode, joint.enabled) == (
+        100.0, 'lever_arm', 'wrapped', True)
+    assert joint.effort_limit == math.inf
+    assert scene.solver.integrator == 'bdf1' and scene.solver.newton_tol == 1e-4
+
+
+@pytest.mark.parametrize('edit, path, hint', [
+    (('parent: base', 'parent: nowhere'), 'joints[0].parent', 'valid: base, link'),
+    (('child: link', 'child: base'), 'joints[0].child', 'must differ'),
+    (('x1: [0.05, 0, 0]', 'x1: [-0.05, 0, 0]'), 'joints[0].x1', 'must differ from x0'),
+    (('mass: 1.0', 'mass: -1.0'), 'bodies[1].mass', 'greater than 0'),
+    (('mass: 1.0', 'mass: .nan'), 'bodies[1].mass', 'finite'),
+    (('position: [0, 0, -0.5]', 'position: [0, .inf, -0.5]'), 'bodies[1].position[1]', 'finite'),
+    (('density: 1000.0', 'density: 0'), 'bodies[0].density', 'greater than 0'),
+    (('mass: 1.0,', 'mass: 1.0, density: 5.0,'), 'bodies[1]', 'exactly one of density'),
+    (('mass: 1.0,', ''), 'bodies[1]', 'exactly one of density'),
+    (('{box: [0.1, 0.1, 1.0]}', '{cone: [1, 2]}'), 'bodies[1].shape.cone',
+     'valid keys here: box, cylinder, sphere'),
+    (('fixed: true', 'fixd: true'), 'bodies[0].fixd', 'valid keys here: name, shape'),
+    (('name: link', 'name: 2link'), 'bodies[1].name', '[A-Za-z_]'),
+    (('name: link', 'name: base'), 'bodies[1].name', "duplicate name 'base'"),
+    (('name: test', 'name: test\ndt: 0'), 'dt', 'greater than 0'),
+    (('name: test', 'name: test\nsolver: {integrator: rk4}'), 'solver.integrator', "'bdf2'"),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], torque_model: magic}'), 'joints[0].torque_model',
+     "'generalized'"),
+])
+def test_invalid_scenes_name_file_key_path_and_valid_values(edit, path, hint):
+    message = error_of(BASE.replace(*edit))
+    assert message.startswith('scene.yaml: invalid scene')
+    assert f'  {path}: ' in message and hint in message, message
+
+
+def test_closed_loop_is_rejected_with_its_joints():
+    text = BASE + '''  - {name: back, parent: link, child: base, x0: [0, 0, -1], x1: [0.1, 0, -1]}\n'''
+    message = error_of(text)
+    assert 'joints[1]' in message and 'closed loop (hinge, back)' in message
+
+
+def test_unreadable_and_non_mapping_sources():
+    with pytest.raises(SceneError, match='missing.yaml: cannot read'):
+        Scene.from_yaml('missing.yaml')
+    with pytest.raises(SceneError, match='not valid YAML'):
+        load('bodies: [')
+    with pytest.raises(SceneError, match='must be a mapping'):
+        load('- 1\n- 2')
+
+
+def test_names_lookup_lists_valid_names():
+    scene = load(BASE)
+    assert scene.joint_index('hinge') == 0
+    with pytest.raises(KeyError, match='valid: base, link'):
+        scene.body_index('arm')
