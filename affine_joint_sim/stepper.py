@@ -1,0 +1,324 @@
+"""Stepper: the simulator as a plain Python object (no ROS), design.md §2 and §8.
+
+Every state array has a leading environment axis; without ``num_envs`` the public properties
+drop it. A step is one recorded kernel launch on CPU (a CUDA graph on a GPU, with the command
+upload and the output download captured in it); commands are written and outputs read through
+NumPy views of host arrays, so nothing in ``step()`` but the replay runs per step.
+"""
+
+import warnings
+
+import numpy as np
+import warp as wp
+
+from affine_joint_sim.physics import kernels as kernels_module
+from affine_joint_sim.physics.kernels import STAT_FLOAT_NAMES, STAT_INT_NAMES, step_kernels
+from affine_joint_sim.physics.model import SimulationWarning, build_model
+from affine_joint_sim.scene import Scene
+
+__all__ = ['Stepper', 'SimulationWarning']
+
+_PROBLEMS = {
+    'converged': 'Newton did not converge within newton_max_iter = {max_iter} iterations '
+                 '(stats["converged"] is False; residual {residual:.3g} m/s)',
+    'angle_aliased': 'a joint turned more than 0.9π in one step: its angle may alias '
+                     '(reduce dt)',
+    'torque_dropped': 'a body is nearly singular (|det A| < 1e-6 ∏|a_r|): its joint torque '
+                      'was dropped this step',
+    'line_search_failures': 'the line search found no decrease in 8 halvings',
+}
+
+
+class Stepper:
+    """Affine-body simulation of one scene, in one or ``num_envs`` independent environments.
+
+    Args:
+        scene: a ``Scene`` (or a path to a scene YAML file).
+        device: Warp device, ``"cpu"`` (default), ``"cuda"`` or ``"cuda:N"``.
+        num_envs: number of environments; ``None`` for a single one without the env axis.
+    """
+
+    def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None):
+        if not isinstance(scene, Scene):
+            scene = Scene.from_yaml(scene)
+        if num_envs is not None and (int(num_envs) != num_envs or num_envs < 1):
+            raise ValueError(f'num_envs must be a positive integer or None, got {num_envs!r}')
+        self.scene = scene
+        self.device = wp.get_device(device)
+        self._batched = num_envs is not None
+        self._envs = 1 if num_envs is None else int(num_envs)
+        self._host = build_model(scene)
+        self._k = step_kernels(wp.float64 if scene.solver.precision == 'float64' else wp.float32)
+        self._effort_limit = np.array([j.effort_limit for j in scene.joints])
+        self._allocate()
+        self.reset()
+        self._record()
+
+    # ---- public API -----------------------------------------------------------------------
+
+    @property
+    def joint_names(self) -> list[str]:
+        return [j.name for j in self.scene.joints]
+
+    @property
+    def body_names(self) -> list[str]:
+        return [b.name for b in self.scene.bodies]
+
+    @property
+    def num_envs(self) -> int:
+        return self._envs
+
+    @property
+    def dt(self) -> float:
+        """Time step [s]."""
+        return self.scene.dt
+
+    @property
+    def time(self) -> float:
+        """Simulated time [s] (step count × dt)."""
+        return self._steps * self.scene.dt
+
+    @property
+    def step_count(self) -> int:
+        return self._steps
+
+    def set_torque(self, name: str, value) -> None:
+        """Set joint ``name``'s external torque τ [N·m], held until changed.
+
+        ``value`` is a scalar (every environment) or an array of shape (num_envs,). Values
+        above the joint's effort_limit are clamped with a warning; NaN/Inf raise ValueError.
+        """
+        k = self.scene.joint_index(name)
+        tau = self._per_env(name, value, np.float64)
+        if not np.all(np.isfinite(tau)):
+            raise ValueError(f'joint {name!r}: torque must be finite, got {value!r}')
+        limit = self._effort_limit[k]
+        if np.any(np.abs(tau) > limit):
+            warnings.warn(f'joint {name!r}: |torque| above effort_limit {limit:g} N·m, clamped',
+                          SimulationWarning, stacklevel=2)
+            tau = np.clip(tau, -limit, limit)
+        self._torque[:, k] = tau
+
+    def set_enabled(self, name: str, enabled) -> None:
+        """Enable (True) or disable joint ``name``'s torque (external_torque/is_constrained)."""
+        k = self.scene.joint_index(name)
+        self._enabled[:, k] = self._per_env(name, enabled, np.bool_)
+
+    def step(self) -> None:
+        """Advance every environment by one dt."""
+        if self._graph is not None:
+            wp.capture_launch(self._graph)
+            wp.synchronize_device(self.device)
+        else:
+            self._launch.launch()
+        self._steps += 1
+        self._check()
+
+    def reset(self) -> None:
+        """Back to the scene's initial state, time 0 and the scene's initial commands."""
+        h, n = self._host, self._envs
+        q0 = np.broadcast_to(h.body_q0, (n, *h.body_q0.shape))
+        v0 = np.broadcast_to(h.body_v0, (n, *h.body_v0.shape))
+        for array, value in ((self._state.q, q0), (self._state.v, v0), (self._state.q_prev, q0),
+                             (self._state.v_prev, v0)):
+            array.assign(np.ascontiguousarray(value))
+        for array in (self._state.history_ready, self._state.joint_angle_continuous,
+                      self._state.joint_angle, self._state.joint_velocity,
+                      self._state.joint_effort, self._state.stats_int, self._state.stats_float):
+            array.zero_()
+        self._warned = set()
+        for joint in self.scene.joints:
+            self.set_torque(joint.name, joint.torque)
+            self.set_enabled(joint.name, joint.enabled)
+        if self._mirror_outputs:
+            self._download()
+        self._steps = 0
+
+    @property
+    def angles(self) -> np.ndarray:
+        """Joint angles [rad] per joint's angle_mode, shape (n_joints,) or (num_envs, n_joints)."""
+        return self._out(self._angle)
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Joint angular velocities Δθ/dt [rad/s]."""
+        return self._out(self._velocity)
+
+    @property
+    def efforts(self) -> np.ndarray:
+        """Torque applied in the last step [N·m] (0 for a disabled joint)."""
+        return self._out(self._effort)
+
+    @property
+    def torques(self) -> np.ndarray:
+        """Commanded torques [N·m] after effort_limit clamping."""
+        return self._out(self._torque)
+
+    @property
+    def enabled(self) -> np.ndarray:
+        """Enable flags of the joint torques."""
+        return self._out(self._enabled.astype(bool))
+
+    @property
+    def body_q(self) -> np.ndarray:
+        """ABD state q = [p, a1, a2, a3] per body, world frame [m, -]."""
+        return self._out(self._q)
+
+    @property
+    def body_qdot(self) -> np.ndarray:
+        """ABD velocity q̇ = [ṗ, ȧ1, ȧ2, ȧ3] per body, world frame [m/s, 1/s]."""
+        return self._out(self._qdot)
+
+    @property
+    def body_transforms(self) -> np.ndarray:
+        """World transforms [[A, p], [0, 1]] per body, shape (..., n_bodies, 4, 4)."""
+        q = self._q
+        t = np.zeros((*q.shape[:2], 4, 4))
+        t[..., :3, :3] = q[..., 3:].reshape(*q.shape[:2], 3, 3)
+        t[..., :3, 3] = q[..., :3]
+        t[..., 3, 3] = 1.0
+        return t if self._batched else t[0]
+
+    @property
+    def stats(self) -> dict:
+        """Statistics of the last step: Newton iterations, residual [m/s] (largest vertex
+        update / dt), line-search halvings and failures, joint gap [m], converged flag, ...,
+        and ``active_terms``: the terms the next step evaluates (``torque`` only while some
+        joint has an enabled, non-zero torque)."""
+        stats = {name: self._out(self._stats_int[:, i]) for i, name in enumerate(STAT_INT_NAMES)}
+        for name in ('converged', 'angle_aliased', 'torque_dropped'):
+            stats[name] = stats[name].astype(bool) if self._batched else bool(stats[name])
+        stats.update({name: self._out(self._stats_float[:, i])
+                      for i, name in enumerate(STAT_FLOAT_NAMES)})
+        torqued = (self._enabled != 0) & (self._torque != 0.0) & (self._host.joint_has_free != 0)
+        stats['active_terms'] = list(self._host.active_terms) + ['torque'] * bool(torqued.any())
+        stats['launches_per_step'] = 1
+        return stats
+
+    # ---- internals --------------------------------------------------------------------------
+
+    def _allocate(self):
+        k, h, dev, n = self._k, self._host, self.device, self._envs
+        nb, nj = h.body_count, h.joint_count
+        dtype = np.float64 if self.scene.solver.precision == 'float64' else np.float32
+        self._dtype = dtype
+
+        def const(values, wp_type):
+            return wp.array(np.ascontiguousarray(values), dtype=wp_type, device=dev)
+
+        model = k.Model()
+        model.dt = h.dt
+        model.gravity = k.vec3(*h.gravity)
+        model.has_gravity = int(np.any(h.gravity != 0.0))
+        model.integrator = h.integrator
+        model.newton_tol = h.newton_tol
+        model.newton_max_iter = h.newton_max_iter
+        model.line_search = int(h.line_search)
+        model.body_fixed = const(h.body_fixed, wp.int32)
+        model.body_mass = const(h.body_mass.astype(dtype), k.scalar)
+        model.body_second_moment = const(h.body_second_moment.astype(dtype), k.vec3)
+        model.body_ortho_coeff = const(h.body_ortho_coeff.astype(dtype), k.scalar)
+        model.body_half_extent = const(h.body_half_extent.astype(dtype), k.vec3)
+        model.body_joint_hessian = const(h.body_joint_hessian.astype(dtype), k.mat12)
+        model.elim_order = const(h.elim_order, wp.int32)
+        model.elim_parent = const(h.elim_parent, wp.int32)
+        model.elim_offdiag = const(h.elim_offdiag.astype(dtype), k.mat12)
+        model.joint_parent = const(h.joint_parent, wp.int32)
+        model.joint_child = const(h.joint_child, wp.int32)
+        model.joint_stiffness = const(h.joint_stiffness.astype(dtype), k.scalar)
+        model.joint_anchors = const(h.joint_anchors.astype(dtype), k.vec3)
+        model.joint_frames = const(h.joint_frames.astype(dtype), k.vec3)
+        model.joint_torque_model = const(h.joint_torque_model, wp.int32)
+        model.joint_angle_mode = const(h.joint_angle_mode, wp.int32)
+        model.joint_has_free = const(h.joint_has_free, wp.int32)
+        self._model = model
+
+        def zeros(shape, wp_type):
+            return wp.zeros(shape, dtype=wp_type, device=dev)
+
+        state = k.State()
+        for name in ('q', 'v', 'q_prev', 'v_prev'):
+            setattr(state, name, zeros((n, nb), k.vec12))
+        state.history_ready = zeros(n, wp.int32)
+        for name in ('joint_angle_continuous', 'joint_angle', 'joint_velocity', 'joint_effort'):
+            setattr(state, name, zeros((n, nj), k.scalar))
+        state.stats_int = zeros((n, len(STAT_INT_NAMES)), wp.int32)
+        state.stats_float = zeros((n, len(STAT_FLOAT_NAMES)), k.scalar)
+        self._state = state
+
+        control = k.Control()
+        control.joint_torque = zeros((n, nj), k.scalar)
+        control.joint_enabled = zeros((n, nj), wp.int32)
+        self._control = control
+
+        scratch = k.Scratch()
+        for name in ('q_n', 'q_tilde', 'q_start', 'dq', 'rhs'):
+            setattr(scratch, name, zeros((n, nb), k.vec12))
+        for name in ('factor', 'coupling'):
+            setattr(scratch, name, zeros((n, nb), k.mat12))
+        self._scratch = scratch
+
+        # Host views: on CPU the device arrays themselves; on CUDA pinned mirrors that the
+        # captured graph uploads (commands) before and downloads (outputs) after the kernel.
+        inputs = (control.joint_torque, control.joint_enabled)
+        outputs = (state.joint_angle, state.joint_velocity, state.joint_effort, state.stats_int,
+                   state.stats_float, state.q, state.v)
+        if self.device.is_cpu:
+            self._mirror_inputs, self._mirror_outputs = [], []
+            host_in, host_out = inputs, outputs
+        else:
+            host_in = [wp.empty_like(a, device='cpu', pinned=True) for a in inputs]
+            host_out = [wp.empty_like(a, device='cpu', pinned=True) for a in outputs]
+            self._mirror_inputs = list(zip(inputs, host_in))
+            self._mirror_outputs = list(zip(outputs, host_out))
+        self._torque, self._enabled = (a.numpy() for a in host_in)
+        (self._angle, self._velocity, self._effort, self._stats_int, self._stats_float,
+         self._q, self._qdot) = (a.numpy() for a in host_out)
+        self._warned = set()
+
+    def _record(self):
+        args = [self._model, self._state, self._control, self._scratch]
+        self._graph = None
+        if self.device.is_cpu:
+            self._launch = wp.launch(self._k.step, dim=self._envs, inputs=args,
+                                     device=self.device, record_cmd=True)
+            return
+        wp.load_module(kernels_module, device=self.device)
+        with wp.ScopedCapture(device=self.device) as capture:
+            for device_array, host_array in self._mirror_inputs:
+                wp.copy(device_array, host_array)
+            wp.launch(self._k.step, dim=self._envs, inputs=args, device=self.device)
+            self._download()
+        self._graph = capture.graph
+
+    def _download(self):
+        for device_array, host_array in self._mirror_outputs:
+            wp.copy(host_array, device_array)
+        if not wp.get_device(self.device).is_capturing:
+            wp.synchronize_device(self.device)
+
+    def _check(self):
+        """Warn once per kind of trouble (the stats keep the per-step flags)."""
+        ints = self._stats_int
+        for i, name in enumerate(STAT_INT_NAMES):
+            if name not in _PROBLEMS or name in self._warned:
+                continue
+            bad = not ints[:, i].all() if name == 'converged' else ints[:, i].any()
+            if bad:
+                self._warned.add(name)
+                warnings.warn(
+                    f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
+                        max_iter=self.scene.solver.newton_max_iter,
+                        residual=float(self._stats_float[:, 0].max())),
+                    SimulationWarning, stacklevel=3)
+
+    def _per_env(self, name, value, dtype) -> np.ndarray:
+        array = np.asarray(value)
+        if array.ndim == 0 or (self._batched and array.shape == (self._envs,)):
+            return np.broadcast_to(array, (self._envs,)).astype(dtype)
+        expected = f'a scalar or shape ({self._envs},)' if self._batched else 'a scalar'
+        raise ValueError(f'joint {name!r}: expected {expected}, got shape {array.shape}')
+
+    def _out(self, view) -> np.ndarray:
+        out = np.array(view, dtype=np.float64 if view.dtype.kind == 'f' else view.dtype)
+        return out if self._batched else out[0]
