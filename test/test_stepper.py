@@ -58,10 +58,10 @@ def test_positive_torque_increases_angle(torque_model, axis):
     assert np.all(np.diff(angles) > 0) and angles[0] > 0
 
 
-def _pendulum_reference(tau, t_end, dt=1e-4):
-    """RK4 of I θ̈ = τ − m g d sin θ (d = 0.5 m, m = 1 kg) from rest, θ(0) = 0."""
+def rk4_angle(acceleration, t_end, dt=1e-4):
+    """θ(t_end) of θ̈ = acceleration(θ, θ̇) from rest at θ = 0, by RK4 with step dt [s]."""
     def f(y):
-        return np.array([y[1], (tau - 9.81 * 0.5 * math.sin(y[0])) / I_PIN])
+        return np.array([y[1], acceleration(y[0], y[1])])
 
     y = np.zeros(2)
     for _ in range(round(t_end / dt)):
@@ -71,6 +71,11 @@ def _pendulum_reference(tau, t_end, dt=1e-4):
         k4 = f(y + dt * k3)
         y = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     return y[0]
+
+
+def _pendulum_reference(tau, t_end):
+    """I θ̈ = τ − m g d sin θ (d = 0.5 m, m = 1 kg) from rest."""
+    return rk4_angle(lambda th, w: (tau - 9.81 * 0.5 * math.sin(th)) / I_PIN, t_end)
 
 
 def test_gravity_pendulum_with_torque_converges_first_order():
@@ -115,26 +120,19 @@ def test_free_pair_generalized_torque_injects_no_momentum():
     assert sim.angles[0] == pytest.approx(_free_pair_reference(1.0, sim.time), rel=0.015)
 
 
-def _free_pair_reference(tau, t_end, dt=1e-4):
-    """Relative angle θ = 2φ of the symmetric free pair (RK4 of its 1-DOF Lagrangian).
+def _free_pair_reference(tau, t_end):
+    """Relative angle θ = 2φ of the symmetric free pair, from its 1-DOF Lagrangian.
 
     Each cube turns by ±φ about the hinge, which slides so that the COMs stay on the x axis:
     (I_cm + m d² sin²φ) φ̈ + m d² sinφ cosφ φ̇² = τ, with m = 1 kg, d = 0.3 m.
     """
     i_cm, md2 = 1.0 * (0.04 + 0.04) / 12, 1.0 * 0.09
 
-    def f(y):
-        s, c = math.sin(y[0]), math.cos(y[0])
-        return np.array([y[1], (tau - md2 * s * c * y[1] ** 2) / (i_cm + md2 * s * s)])
+    def acceleration(phi, omega):
+        s, c = math.sin(phi), math.cos(phi)
+        return (tau - md2 * s * c * omega ** 2) / (i_cm + md2 * s * s)
 
-    y = np.zeros(2)
-    for _ in range(round(t_end / dt)):
-        k1 = f(y)
-        k2 = f(y + dt / 2 * k1)
-        k3 = f(y + dt / 2 * k2)
-        k4 = f(y + dt * k3)
-        y = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return 2 * y[0]
+    return 2 * rk4_angle(acceleration, t_end)
 
 
 def test_free_pair_lever_arm_injects_the_seed_formulas_momentum():
