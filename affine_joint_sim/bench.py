@@ -16,10 +16,8 @@ __all__ = ['bench_scene', 'main']
 
 
 def bench_scene(name: str, device: str = 'cpu', steps: int = 2000) -> dict:
-    """Time ``steps`` steps of a packaged scene (after warm-up), every joint torqued at 0.5 N·m."""
+    """Time ``steps`` steps of a packaged scene (after warm-up) under its own commands."""
     sim = Stepper(Scene.from_yaml(scene_path(name)), device=device)
-    for k, joint in enumerate(sim.joint_names):
-        sim.set_torque(joint, 0.5 * (-1) ** k)
     for _ in range(20):
         sim.step()
     start = time.perf_counter()
