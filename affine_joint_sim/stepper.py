@@ -201,7 +201,6 @@ class Stepper:
         k, h, dev, n = self._k, self._host, self.device, self._envs
         nb, nj = h.body_count, h.joint_count
         dtype = np.float64 if self.scene.solver.precision == 'float64' else np.float32
-        self._dtype = dtype
 
         def const(values, wp_type):
             return wp.array(np.ascontiguousarray(values), dtype=wp_type, device=dev)

@@ -127,6 +127,11 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
                      f[2] * x_bar[0], f[2] * x_bar[1], f[2] * x_bar[2])
 
     @wp.func
+    def translation_part(f: vec3):
+        """A 3-vector as the translation of a 12-vector, affine part zero."""
+        return vec12(f[0], f[1], f[2], zero, zero, zero, zero, zero, zero, zero, zero, zero)
+
+    @wp.func
     def affine_part(g: mat33):
         """A 3×3 matrix as the affine 9 of a 12-vector (row-major), translation zero."""
         return vec12(zero, zero, zero, g[0, 0], g[0, 1], g[0, 2], g[1, 0], g[1, 1], g[1, 2],
@@ -283,12 +288,10 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
             if model.joint_torque_model[k] == LEVER_ARM:
                 if model.body_fixed[bp] == 0:
                     f = lever_arm_force(qp, u0, u1, -tau) * (scale / model.body_mass[bp])
-                    scratch.q_tilde[env, bp] += vec12(f[0], f[1], f[2], zero, zero, zero, zero,
-                                                      zero, zero, zero, zero, zero)
+                    scratch.q_tilde[env, bp] += translation_part(f)
                 if model.body_fixed[bc] == 0:
                     f = lever_arm_force(qc, w0, w1, tau) * (scale / model.body_mass[bc])
-                    scratch.q_tilde[env, bc] += vec12(f[0], f[1], f[2], zero, zero, zero, zero,
-                                                      zero, zero, zero, zero, zero)
+                    scratch.q_tilde[env, bc] += translation_part(f)
             else:
                 ap = affine(qp)
                 ac = affine(qc)
@@ -484,8 +487,7 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
             force_scale = scalar(4.0 / 9.0) * dt2
         gravity = vec12()
         if model.has_gravity != 0:
-            gravity = vec12(model.gravity[0], model.gravity[1], model.gravity[2], zero, zero,
-                            zero, zero, zero, zero, zero, zero, zero)
+            gravity = translation_part(model.gravity)
 
         # prediction (physics_spec §3.2, §3.7 with a_ext, preface §2)
         for k in range(n_free):
