@@ -34,7 +34,10 @@ setup(
         'pyyaml',
         'pydantic>=2',
     ],
-    extras_require={'test': ['pytest']},
+    extras_require={
+        'test': ['pytest'],
+        'bench': ['matplotlib'],    # plots of `make bench`
+    },
     entry_points={
         'console_scripts': ['affine-joint-sim = affine_joint_sim.cli:main'],
     },

@@ -55,11 +55,6 @@ def _run(args) -> int:
     return 0 if converged else 1
 
 
-def _bench(args) -> int:
-    from affine_joint_sim import bench
-    return bench.main(args)
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='affine-joint-sim',
@@ -76,12 +71,12 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar='JOINT=N·m', help='constant torque on a joint (repeatable)')
     run.set_defaults(func=_run)
 
-    bench = commands.add_parser('bench', help='time the stepper on the packaged scenes',
-                                description='Print µs/step of the packaged scenes.')
-    bench.add_argument('scenes', nargs='*', help='scene names (default: all packaged)')
-    bench.add_argument('--device', default='cpu', help='Warp device: cpu, cuda, cuda:N')
-    bench.add_argument('--steps', type=int, default=2000, help='timed steps per scene')
-    bench.set_defaults(func=_bench)
+    from affine_joint_sim import bench as bench_sections
+    bench = commands.add_parser('bench', help='speed and accuracy measurements',
+                                description='Speed/accuracy measurements; with no section, '
+                                            'every section writes into --results.')
+    bench_sections.add_arguments(bench)
+    bench.set_defaults(func=bench_sections.main)
     return parser
 
 
