@@ -1,90 +1,194 @@
-"""The ``affine-joint-sim`` command line (design.md §6)."""
+"""The ``affine-joint-sim`` command line (design.md §6).
+
+Subcommands: ``run`` (the node), ``torque`` / ``enable`` / ``echo`` (talk to a running node
+without the ``ros2`` CLI), ``controller`` (the demo PD controller), ``demo`` (``make run``) and
+``bench``. ROS arguments go last, after ``--ros-args`` (e.g. ``--params-file``, remappings).
+Modules behind a subcommand are imported only when it runs, so ``--help`` is quick.
+"""
 
 import argparse
 import sys
-import time
+from pathlib import Path
 
-from affine_joint_sim.resources import packaged_scenes, scene_path
+from affine_joint_sim.resources import packaged_scenes
+from affine_joint_sim.ros.parameters import MODES
 from affine_joint_sim.scene import SceneError
 
 __all__ = ['main']
 
+ROS_ARGS = '--ros-args'
 
-def _torque(text: str) -> tuple[str, float]:
+
+def _assignment(text: str) -> tuple[str, float]:
     name, sep, value = text.partition('=')
     try:
-        if not sep:
+        if not sep or not name:
             raise ValueError
         return name, float(value)
     except ValueError:
-        raise argparse.ArgumentTypeError(f'expected JOINT=N·m, got {text!r}') from None
+        raise argparse.ArgumentTypeError(f'expected JOINT=NUMBER, got {text!r}') from None
 
 
-def _run(args) -> int:
-    """Headless run of a scene with constant torques; prints angles and solver figures."""
-    import numpy as np
+def _on_off(text: str) -> bool:
+    words = {'on': True, 'true': True, '1': True, 'off': False, 'false': False, '0': False}
+    try:
+        return words[text.lower()]
+    except KeyError:
+        raise argparse.ArgumentTypeError(f'expected on or off, got {text!r}') from None
 
-    from affine_joint_sim.scene import Scene
-    from affine_joint_sim.stepper import Stepper
 
-    scene = Scene.from_yaml(scene_path(args.scene))
-    sim = Stepper(scene, device=args.device)
-    for name, value in args.torque:
-        sim.set_torque(name, value)
-    steps = round(args.duration / scene.dt)
-    report_every = max(1, round(0.25 / scene.dt))
-    iterations, gap, converged = [], 0.0, True
-    print(f'{scene.name}: {len(sim.body_names)} bodies, joints {", ".join(sim.joint_names)}; '
-          f'dt {scene.dt} s, {scene.solver.integrator}, {scene.solver.precision}, {sim.device}')
-    print('    t [s]  ' + ''.join(f'{n + " [rad]":>18}' for n in sim.joint_names))
-    start = time.perf_counter()
-    for i in range(steps):
-        sim.step()
-        stats = sim.stats
-        iterations.append(stats['newton_iterations'])
-        gap = max(gap, stats['joint_gap'])
-        converged &= stats['converged']
-        if (i + 1) % report_every == 0 or i + 1 == steps:
-            print(f'{sim.time:9.3f}  ' + ''.join(f'{a:18.6f}' for a in sim.angles))
-    wall = time.perf_counter() - start
-    print(f'{steps} steps ({sim.time:.3f} s simulated) in {wall:.3f} s wall: '
-          f'{wall / max(steps, 1) * 1e6:.1f} µs/step including reporting, '
-          f'{sim.time / wall:.0f}x real time')
-    print(f'Newton iterations per step: mean {np.mean(iterations):.2f}, max {max(iterations)}; '
-          f'every step converged: {converged}; largest joint gap {gap:.3g} m')
-    return 0 if converged else 1
+def _run(args, ros_args) -> int:
+    from rclpy.parameter import Parameter
+
+    from affine_joint_sim.ros import node
+    from affine_joint_sim.ros.parameters import PARAMETERS
+
+    overrides = [Parameter(name, value=getattr(args, name)) for name in PARAMETERS
+                 if getattr(args, name) is not None]
+    return node.main(args=['affine-joint-sim', ROS_ARGS, *ros_args] if ros_args else None,
+                     parameter_overrides=overrides)
+
+
+def _torque(args, ros_args) -> int:
+    from affine_joint_sim.ros import tools
+    return tools.send('joint_torque', args.joint, args.value, args.namespace, args.timeout)
+
+
+def _enable(args, ros_args) -> int:
+    from affine_joint_sim.ros import tools
+    return tools.send('joint_enable', args.joint, args.state, args.namespace, args.timeout)
+
+
+def _echo(args, ros_args) -> int:
+    from affine_joint_sim.ros import tools
+    return tools.echo(args.namespace, args.rate, args.once, args.timeout)
+
+
+def _controller(args, ros_args) -> int:
+    from affine_joint_sim.ros import controller
+    return controller.main(dict(args.target), args.kp, args.kd, args.effort_limit,
+                           args.namespace)
+
+
+def _demo(args, ros_args) -> int:
+    from affine_joint_sim.ros import demo
+    return demo.run_demo(args.scene, dict(args.target), args.duration, args.mode, args.record,
+                         args.kp, args.kd)
+
+
+def _bench(args, ros_args) -> int:
+    from affine_joint_sim import bench
+    return bench.main(args)
+
+
+def _add_run(commands):
+    from affine_joint_sim.ros.parameters import PARAMETERS
+
+    run = commands.add_parser(
+        'run', help='run the simulator node',
+        description='Run the affine_joint_sim ROS 2 node. Each flag sets the node parameter of '
+                    'the same name and beats a --ros-args --params-file; unset flags keep the '
+                    'file\'s value or the default shown.')
+    for name, spec in PARAMETERS.items():
+        flag = '--' + name.replace('_', '-')
+        extra = f' (default: {spec.default!r})'
+        if name == 'scene':
+            extra += f'; packaged: {", ".join(packaged_scenes())}'
+        if isinstance(spec.default, bool):
+            run.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction,
+                             default=None, help=spec.help + extra)
+        else:
+            run.add_argument(flag, dest=name, type=type(spec.default), choices=spec.choices,
+                             default=None, help=spec.help + extra)
+    run.set_defaults(func=_run)
+
+
+def _add_namespace(parser):
+    parser.add_argument('--namespace', default='', help='namespace of the node (default: /)')
+
+
+def _add_gains(parser):
+    parser.add_argument('--kp', type=float, default=100.0, help='P gain [N·m/rad]')
+    parser.add_argument('--kd', type=float, default=10.0, help='D gain [N·m·s/rad]')
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='affine-joint-sim',
-        description='Affine-body revolute-joint simulator (ROS 2 Jazzy node and tools).')
+        description='Affine-body revolute-joint simulator: ROS 2 Jazzy node and tools. '
+                    'Run with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (the Makefile sets it).')
     commands = parser.add_subparsers(dest='command', required=True)
+    _add_run(commands)
 
-    run = commands.add_parser('run', help='simulate a scene and print joint angles',
-                              description='Simulate a scene with constant joint torques.')
-    run.add_argument('--scene', default='pendulum',
-                     help=f'scene file or packaged name ({", ".join(packaged_scenes())})')
-    run.add_argument('--device', default='cpu', help='Warp device: cpu, cuda, cuda:N')
-    run.add_argument('--duration', type=float, default=2.0, help='simulated seconds [s]')
-    run.add_argument('--torque', type=_torque, action='append', default=[],
-                     metavar='JOINT=N·m', help='constant torque on a joint (repeatable)')
-    run.set_defaults(func=_run)
+    for name, topic, value_help in (
+            ('torque', 'external_torque', ('value', float, 'torque [N·m]')),
+            ('enable', 'external_torque/is_constrained', ('state', _on_off, 'on or off'))):
+        sub = commands.add_parser(name, help=f'send one message to joints/JOINT/{topic}',
+                                  description=f'Publish once on joints/JOINT/{topic} and wait '
+                                              'until the node acknowledges it.')
+        sub.add_argument('joint', help='joint name')
+        sub.add_argument(value_help[0], type=value_help[1], help=value_help[2])
+        _add_namespace(sub)
+        sub.add_argument('--timeout', type=float, default=10.0,
+                         help='seconds to wait for the node (default: %(default)s)')
+        sub.set_defaults(func=_torque if name == 'torque' else _enable)
+
+    echo = commands.add_parser('echo', help='print joint_states as a live table',
+                               description='Print joint_states as a table until Ctrl-C.')
+    _add_namespace(echo)
+    echo.add_argument('--rate', type=float, default=10.0, help='refreshes per second')
+    echo.add_argument('--once', action='store_true', help='print one message and exit')
+    echo.add_argument('--timeout', type=float, default=0.0,
+                      help='exit 1 if no message within this many seconds (0: wait forever)')
+    echo.set_defaults(func=_echo)
+
+    controller = commands.add_parser(
+        'controller', help='demo PD controller',
+        description='Drive joints to target angles through joint_commands until Ctrl-C.')
+    controller.add_argument('--target', type=_assignment, action='append', required=True,
+                            metavar='JOINT=RAD', help='target angle (repeatable)')
+    _add_gains(controller)
+    controller.add_argument('--effort-limit', type=float, default=float('inf'),
+                            help='largest |torque| sent [N·m]')
+    _add_namespace(controller)
+    controller.set_defaults(func=_controller)
+
+    demo = commands.add_parser(
+        'demo', help='node + PD controller closed loop, recorded (make run)',
+        description='Run the node and the PD controller as two processes over DDS, record a '
+                    'bag and print a summary.')
+    demo.add_argument('--scene', default='pendulum', help='scene file or packaged name')
+    demo.add_argument('--target', type=_assignment, action='append',
+                      default=None, metavar='JOINT=RAD', help='target angle (repeatable; '
+                      'default shoulder=1.0)')
+    demo.add_argument('--duration', type=float, default=3.0, help='simulated seconds')
+    demo.add_argument('--mode', default='lockstep', choices=MODES,
+                      help='node mode (default: %(default)s: deterministic)')
+    demo.add_argument('--record', type=Path, default=None, help='bag directory')
+    _add_gains(demo)
+    demo.set_defaults(func=_demo)
 
     from affine_joint_sim import bench as bench_sections
     bench = commands.add_parser('bench', help='speed and accuracy measurements',
                                 description='Speed/accuracy measurements; with no section, '
                                             'every section writes into --results.')
     bench_sections.add_arguments(bench)
-    bench.set_defaults(func=bench_sections.main)
+    bench.set_defaults(func=_bench)
     return parser
 
 
 def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ros_args = []
+    if ROS_ARGS in argv:
+        at = argv.index(ROS_ARGS)
+        argv, ros_args = argv[:at], argv[at + 1:]
     args = build_parser().parse_args(argv)
+    if args.command == 'demo' and args.target is None:
+        args.target = [('shoulder', 1.0)]
     try:
-        return args.func(args)
-    except (SceneError, KeyError, ValueError) as exc:
+        return args.func(args, ros_args)
+    except (SceneError, FileNotFoundError, ValueError) as exc:
         print(f'affine-joint-sim: error: {exc}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -15,12 +15,19 @@ def config_dir() -> Path:
 
 
 def scene_path(name_or_path: str) -> Path:
-    """A scene file: an existing path as given, else a packaged scene by name (``arm``)."""
+    """A scene file: an existing path as given, else a packaged scene by name (``arm``).
+
+    Raises:
+        FileNotFoundError: neither exists; the message lists the packaged scenes.
+    """
     path = Path(name_or_path)
     if path.is_file():
         return path
     packaged = config_dir() / 'scenes' / f'{name_or_path}.yaml'
-    return packaged if packaged.is_file() else path
+    if packaged.is_file():
+        return packaged
+    raise FileNotFoundError(f'scene {name_or_path!r} is neither a file nor a packaged scene '
+                            f'({", ".join(packaged_scenes())})')
 
 
 def packaged_scenes() -> list[str]:

@@ -101,3 +101,21 @@ def spawn():
     yield start
     for child in children:
         child.stop()
+
+
+@pytest.fixture
+def sim(spawn, ros_node, wait_for):
+    """Return `start(*flags) -> Child`: the node (``affine-joint-sim run FLAGS``), once its
+    joint_states publisher and services are visible from the test's node."""
+    from helpers import ros_client
+
+    def start(*flags):
+        child = spawn('-m', 'affine_joint_sim.cli', 'run', *flags)
+        visible = wait_for(lambda: child.poll() is not None or (
+            ros_node.count_publishers('/joint_states') > 0 and
+            '/affine_joint_sim/step' in ros_client.node_services(ros_node)),
+            timeout=30.0)
+        assert visible and child.poll() is None, child.stop()
+        return child
+
+    return start

@@ -1,0 +1,86 @@
+"""Joint commands between steps: latest wins, non-finite values rejected, silent joints time out.
+
+No ROS here: the node hands over decoded values and logs what comes back. A command taken
+before step n is computed applies to step n (the step from sim time t to t + dt).
+"""
+
+import math
+
+__all__ = ['CommandBuffer']
+
+_TIME_EPS = 1e-9    # [s]: sim times are step counts × dt, so 0.8 - 0.6 must not exceed 0.2
+
+
+class CommandBuffer:
+    """Pending torques and enables for the next step, and the command timeout.
+
+    Args:
+        joint_names: the scene's joints, in order.
+        command_timeout: seconds of simulated time [s] after a joint's last torque command
+            at which its torque falls to 0; 0 holds the last command forever.
+    """
+
+    def __init__(self, joint_names: list[str], command_timeout: float = 0.0):
+        self.joint_names = list(joint_names)
+        self._index = {name: k for k, name in enumerate(self.joint_names)}
+        self.command_timeout = command_timeout
+        self.reset([0.0] * len(self.joint_names))
+
+    def reset(self, torques, sim_time: float = 0.0) -> None:
+        """Forget pending commands; ``torques`` [N·m] (the scene's) count as commanded at
+        ``sim_time`` [s]."""
+        self._torque: dict[int, float] = {}
+        self._enabled: dict[int, bool] = {}
+        self._last_command = [sim_time] * len(self.joint_names)
+        self._held = [float(t) != 0.0 for t in torques]     # a non-zero torque that can time out
+
+    def torque(self, joint: str, value: float) -> str | None:
+        """Queue torque ``value`` [N·m] for ``joint``; returns why it was rejected, or None."""
+        k = self._index.get(joint)
+        if k is None:
+            return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
+        if not math.isfinite(value):
+            return f'torque {value!r} for joint {joint!r} is not finite: dropped'
+        self._torque[k] = float(value)
+        return None
+
+    def enable(self, joint: str, flag: bool) -> None:
+        """Queue the enable flag of ``joint``'s torque (the joint must exist)."""
+        self._enabled[self._index[joint]] = bool(flag)
+
+    def joint_commands(self, names, efforts) -> list[str]:
+        """Queue a ``joint_commands`` message's torques (``name[i]`` gets ``effort[i]``).
+
+        Entries with an unknown name or a non-finite effort are dropped, the rest applied;
+        returns the reasons for the dropped ones.
+        """
+        if len(names) != len(efforts):
+            return [f'{len(names)} names but {len(efforts)} efforts: message dropped']
+        problems = [self.torque(name, effort) for name, effort in zip(names, efforts)]
+        return [p for p in problems if p is not None]
+
+    def apply(self, stepper, sim_time: float) -> list[str]:
+        """Write the queued commands into ``stepper`` for the step starting at ``sim_time`` [s].
+
+        Returns one notice per joint whose torque just timed out (said once per silence).
+        """
+        for k, value in self._torque.items():
+            name = self.joint_names[k]
+            stepper.set_torque(name, value)
+            self._last_command[k] = sim_time
+            self._held[k] = value != 0.0
+        for k, flag in self._enabled.items():
+            stepper.set_enabled(self.joint_names[k], flag)
+        self._torque.clear()
+        self._enabled.clear()
+        if self.command_timeout <= 0.0:
+            return []
+        notices = []
+        for k, name in enumerate(self.joint_names):
+            silent = sim_time - self._last_command[k]
+            if self._held[k] and silent > self.command_timeout + _TIME_EPS:
+                self._held[k] = False
+                stepper.set_torque(name, 0.0)
+                notices.append(f'joint {name!r}: no torque command for {silent:.3f} s '
+                               f'(command_timeout {self.command_timeout} s): torque set to 0')
+        return notices

@@ -1,0 +1,92 @@
+"""A demo PD controller in its own process: joint targets → torques over ``joint_commands``.
+
+On every ``joint_states`` message it answers with one ``joint_commands`` message, the torques
+τ = kp (θ* − θ) − kd ω for the joints it has targets for, so against a ``lockstep`` node the
+closed loop is deterministic. Being PD (no gravity model, no integral term), it settles
+``m g l sin θ* / kp`` short of a target held against gravity.
+"""
+
+import numpy as np
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from affine_joint_sim.ros.topics import load_topics
+
+__all__ = ['PDController', 'main']
+
+
+class PDController(Node):
+    """PD control of some joints of the simulator node.
+
+    Args:
+        targets: target angle per joint [rad].
+        kp: proportional gain [N·m/rad].
+        kd: derivative gain [N·m·s/rad].
+        effort_limit: largest |τ| sent [N·m].
+        **node_kwargs: passed to ``rclpy.node.Node`` (``namespace=``, ``context=``).
+    """
+
+    def __init__(self, targets: dict[str, float], kp: float = 100.0, kd: float = 10.0,
+                 effort_limit: float = np.inf, **node_kwargs):
+        super().__init__('pd_controller', **node_kwargs)
+        self.targets, self.kp, self.kd, self.effort_limit = dict(targets), kp, kd, effort_limit
+        topics = load_topics()
+        commands = topics['joint_commands']
+        states = topics['joint_states']
+        self.publisher = self.create_publisher(commands.msg_class, commands.name(), commands.qos)
+        self.create_subscription(states.msg_class, states.name(), self._on_state, states.qos)
+        self._command = commands.msg_class()
+        self._command.name = list(self.targets)
+        self.last_state = None
+        self.states_received = 0
+
+    def _on_state(self, msg):
+        index = {name: i for i, name in enumerate(msg.name)}
+        missing = [j for j in self.targets if j not in index]
+        if missing:
+            self.get_logger().error(f'joints {missing} are not in joint_states ({list(msg.name)})',
+                                    throttle_duration_sec=5.0)
+            return
+        rows = [index[j] for j in self.targets]
+        angle = np.asarray(msg.position)[rows]
+        velocity = np.asarray(msg.velocity)[rows]
+        target = np.fromiter(self.targets.values(), float)
+        tau = np.clip(self.kp * (target - angle) - self.kd * velocity,
+                      -self.effort_limit, self.effort_limit)
+        self._command.header.stamp = msg.header.stamp
+        self._command.effort = tau.tobytes()
+        self.publisher.publish(self._command)
+        self.last_state = msg
+        self.states_received += 1
+
+    def report(self) -> str:
+        """Final angles against targets, for people."""
+        if self.last_state is None:
+            return 'PD controller: no joint_states received'
+        msg = self.last_state
+        t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        lines = [f'PD controller (kp {self.kp:g}, kd {self.kd:g}): {self.states_received} states '
+                 f'answered, last at t = {t:.3f} s',
+                 f'{"joint":<12} {"target [rad]":>13} {"final [rad]":>13} {"error [rad]":>13}']
+        for joint, target in self.targets.items():
+            angle = msg.position[list(msg.name).index(joint)]
+            lines.append(f'{joint:<12} {target:13.6f} {angle:13.6f} {angle - target:13.6f}')
+        return '\n'.join(lines)
+
+
+def main(targets: dict[str, float], kp: float, kd: float, effort_limit: float = np.inf,
+         namespace: str = '', args=None) -> int:
+    """Run the controller until SIGINT/SIGTERM, then print its report on stdout."""
+    rclpy.init(args=args)
+    node = PDController(targets, kp, kd, effort_limit, namespace=namespace)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        print(node.report(), flush=True)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+

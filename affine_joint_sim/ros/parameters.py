@@ -1,0 +1,74 @@
+"""The node's parameters (design.md §4): defaults, valid ranges, and which may change live.
+
+``affine-joint-sim run`` builds one flag per parameter from ``PARAMETERS``, so the flags and a
+``--ros-args --params-file`` YAML always mirror each other.
+"""
+
+import math
+from dataclasses import dataclass
+
+__all__ = ['MODES', 'STORAGES', 'PARAMETERS', 'ParameterSpec', 'ConfigError', 'check']
+
+MODES = ('realtime', 'fast', 'lockstep')
+STORAGES = ('mcap', 'sqlite3')
+
+
+class ConfigError(ValueError):
+    """A parameter value outside its valid range; the message names both."""
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One node parameter.
+
+    Attributes:
+        default: the value when neither a params file nor a flag sets it (fixes the type).
+        help: what it means, with its unit.
+        choices: the valid values of a closed set, else None.
+        minimum: the smallest valid number, else None.
+        exclusive: whether ``minimum`` itself is invalid.
+        live: whether it may change while the node runs (``ros2 param set``).
+    """
+
+    default: object
+    help: str
+    choices: tuple | None = None
+    minimum: float | None = None
+    exclusive: bool = False
+    live: bool = False
+
+
+PARAMETERS = {
+    'scene': ParameterSpec('pendulum', 'scene YAML file, or a packaged scene name'),
+    'device': ParameterSpec('cpu', 'Warp device: cpu, cuda, cuda:N'),
+    'mode': ParameterSpec('realtime', 'realtime: paced by the wall clock x real_time_factor; '
+                          'fast: as fast as possible; lockstep: after publishing a step, wait '
+                          'for joint_commands before the next', choices=MODES, live=True),
+    'real_time_factor': ParameterSpec(1.0, 'simulated seconds per wall second in realtime mode',
+                                      minimum=0.0, exclusive=True, live=True),
+    'publish_clock': ParameterSpec(True, 'publish /clock every step', live=True),
+    'record': ParameterSpec('', 'bag directory to record into (empty: no recording)'),
+    'storage': ParameterSpec('mcap', 'bag storage', choices=STORAGES),
+    'command_timeout': ParameterSpec(0.0, 'simulated seconds [s] after which a silent joint\'s '
+                                     'torque falls to 0 (0: hold the last command)',
+                                     minimum=0.0, live=True),
+    'duration': ParameterSpec(0.0, 'stop after this many simulated seconds [s] (0: run until '
+                              'interrupted)', minimum=0.0, live=True),
+}
+
+
+def check(name: str, value) -> None:
+    """Raise ConfigError unless ``value`` is valid for parameter ``name``."""
+    spec = PARAMETERS[name]
+    if type(value) is not type(spec.default):
+        raise ConfigError(f'parameter {name!r}: expected a {type(spec.default).__name__}, '
+                          f'got {value!r}')
+    if spec.choices is not None and value not in spec.choices:
+        raise ConfigError(f'parameter {name!r}: {value!r} is not one of '
+                          f'{", ".join(spec.choices)}')
+    if spec.minimum is not None:
+        low = spec.minimum
+        if not math.isfinite(value) or value < low or (spec.exclusive and value == low):
+            bound = f'> {low:g}' if spec.exclusive else f'>= {low:g}'
+            raise ConfigError(f'parameter {name!r}: {value!r} is out of range (must be finite '
+                              f'and {bound})')

@@ -1,0 +1,117 @@
+"""Command-line stand-ins for ``ros2 topic pub/echo``: send one torque or enable, watch states.
+
+Each tool is a short-lived node (namespace ``--namespace``, so it reaches a node started in the
+same namespace) using the topic names and QoS of ``msg_configs/topics.yaml``.
+"""
+
+import math
+import os
+import sys
+import time
+
+import rclpy
+from rclpy.duration import Duration
+from rclpy.executors import ExternalShutdownException
+
+from affine_joint_sim.ros.topics import load_topics
+
+__all__ = ['send', 'echo']
+
+
+def _tool_node(namespace: str):
+    rclpy.init()
+    return rclpy.create_node(f'affine_joint_sim_cli_{os.getpid()}', namespace=namespace)
+
+
+def _wait(predicate, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
+def send(key: str, joint: str, value, namespace: str = '', timeout: float = 10.0) -> int:
+    """Publish one command (``key`` is ``joint_torque`` or ``joint_enable``) to ``joint``.
+
+    Waits up to ``timeout`` [s] for a subscriber (the node) and for its acknowledgement.
+    Returns the exit status: 0 delivered, 1 no subscriber (the message names the joints the
+    graph knows), 2 invalid value.
+    """
+    topics = load_topics()
+    topic = topics[key]
+    if key == 'joint_torque' and not math.isfinite(value):
+        print(f'affine-joint-sim: error: torque must be finite, got {value!r}', file=sys.stderr)
+        return 2
+    node = _tool_node(namespace)
+    try:
+        name = topic.name(joint)
+        publisher = node.create_publisher(topic.msg_class, name, topic.qos)
+        full_name = publisher.topic_name
+        if not _wait(lambda: publisher.get_subscription_count() > 0, timeout):
+            suffix = topics['joint_torque'].template.split('{joint}')[-1]
+            known = sorted(n for n, _ in node.get_topic_names_and_types()
+                           if n.endswith(suffix) and node.count_subscribers(n) > 0)
+            print(f'affine-joint-sim: error: nothing subscribes to {full_name} after '
+                  f'{timeout:g} s; is the node running in namespace {namespace or "/"!r} and '
+                  f'is {joint!r} a joint? Torque topics seen: {", ".join(known) or "none"}',
+                  file=sys.stderr)
+            return 1
+        publisher.publish(topic.msg_class(data=value))
+        publisher.wait_for_all_acked(Duration(seconds=timeout))
+        print(f'{full_name}: {value}')
+        return 0
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def _table(msg) -> str:
+    t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+    width = max([5] + [len(n) for n in msg.name])
+    lines = [f't = {t:.3f} s',
+             f'{"joint":<{width}}  {"position [rad]":>15}  {"velocity [rad/s]":>17}  '
+             f'{"effort [N·m]":>13}']
+    for i, name in enumerate(msg.name):
+        row = [msg.position, msg.velocity, msg.effort]
+        values = [f'{field[i]:{w}.6f}' if i < len(field) else f'{"-":>{w}}'
+                  for field, w in zip(row, (15, 17, 13))]
+        lines.append(f'{name:<{width}}  ' + '  '.join(values))
+    return '\n'.join(lines)
+
+
+def echo(namespace: str = '', rate: float = 10.0, once: bool = False,
+         timeout: float = 0.0) -> int:
+    """Print joint_states as a table, refreshed ``rate`` times per second (in place on a TTY).
+
+    ``once`` prints the first message and returns; ``timeout`` > 0 gives up (status 1) when
+    no message arrives within that many seconds.
+    """
+    topic = load_topics()['joint_states']
+    node = _tool_node(namespace)
+    latest = []
+    node.create_subscription(topic.msg_class, topic.name(), latest.append, topic.qos)
+    redraw = sys.stdout.isatty() and not once
+    start = next_print = time.monotonic()
+    try:
+        while True:
+            rclpy.spin_once(node, timeout_sec=0.05)
+            now = time.monotonic()
+            if not latest:
+                if timeout > 0 and now - start > timeout:
+                    name = node.resolve_topic_name(topic.name())
+                    print(f'affine-joint-sim: error: no message on {name} within {timeout:g} s',
+                          file=sys.stderr)
+                    return 1
+            elif now >= next_print:
+                print(('\x1b[H\x1b[J' if redraw else '') + _table(latest[-1]), flush=True)
+                latest.clear()
+                next_print = now + 1.0 / rate
+                if once:
+                    return 0
+    except (KeyboardInterrupt, ExternalShutdownException):
+        return 0
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()

@@ -1,0 +1,83 @@
+"""Topic names, message types and QoS profiles from ``msg_configs/topics.yaml``.
+
+The node, the CLI tools, the demo controller and the bag recorder all take their topics from
+here, so they agree by construction.
+"""
+
+import importlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from affine_joint_sim.resources import config_dir
+
+__all__ = ['Topic', 'TOPIC_KEYS', 'load_topics', 'message_class']
+
+TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_commands', 'joint_states', 'clock', 'scene')
+
+_RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
+                'best_effort': ReliabilityPolicy.BEST_EFFORT}
+_DURABILITY = {'volatile': DurabilityPolicy.VOLATILE,
+               'transient_local': DurabilityPolicy.TRANSIENT_LOCAL}
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One entry of topics.yaml.
+
+    Attributes:
+        key: the entry's key (``joint_torque``, ``joint_states``, ...).
+        template: topic name, relative to the node namespace unless absolute; ``{joint}``
+            stands for a joint name.
+        type: message type, ``package/msg/Name``.
+        qos: the QoS profile publishers and subscribers of this topic use.
+    """
+
+    key: str
+    template: str
+    type: str
+    qos: QoSProfile
+
+    def name(self, joint: str | None = None) -> str:
+        """The topic name, with ``{joint}`` replaced for per-joint topics."""
+        return self.template.format(joint=joint) if joint is not None else self.template
+
+    @property
+    def msg_class(self):
+        return message_class(self.type)
+
+
+def message_class(type_name: str):
+    """The Python class of a message type written ``package/msg/Name``."""
+    package, _, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.msg'), name)
+
+
+def _qos(where: str, spec: dict) -> QoSProfile:
+    try:
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(spec['depth']),
+                          reliability=_RELIABILITY[spec['reliability']],
+                          durability=_DURABILITY[spec['durability']])
+    except KeyError as exc:
+        raise ValueError(f'{where}: missing or invalid {exc}; reliability is one of '
+                         f'{", ".join(_RELIABILITY)}, durability one of '
+                         f'{", ".join(_DURABILITY)}, depth a positive integer') from None
+
+
+def load_topics(path: Path | None = None) -> dict[str, Topic]:
+    """Read topics.yaml (default: the packaged one) into ``{key: Topic}``."""
+    path = Path(path) if path is not None else config_dir() / 'topics.yaml'
+    data = yaml.safe_load(path.read_text())
+    profiles = {name: _qos(f'{path}: qos.{name}', spec) for name, spec in data['qos'].items()}
+    topics = {}
+    for key in TOPIC_KEYS:
+        entry = data['topics'].get(key)
+        if entry is None:
+            raise ValueError(f'{path}: topics.{key} is missing')
+        if entry['qos'] not in profiles:
+            raise ValueError(f'{path}: topics.{key}.qos {entry["qos"]!r} is not one of '
+                             f'{", ".join(profiles)}')
+        topics[key] = Topic(key, entry['name'], entry['type'], profiles[entry['qos']])
+    return topics

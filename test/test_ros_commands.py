@@ -1,0 +1,72 @@
+"""CommandBuffer: latest wins, non-finite and unknown commands rejected, command timeout."""
+
+import math
+
+import pytest
+
+from affine_joint_sim.ros.commands import CommandBuffer
+
+
+class FakeStepper:
+    """Records what the buffer writes (the Stepper's set_torque/set_enabled signature)."""
+
+    def __init__(self):
+        self.torque, self.enabled = {}, {}
+
+    def set_torque(self, name, value):
+        self.torque[name] = value
+
+    def set_enabled(self, name, flag):
+        self.enabled[name] = flag
+
+
+def test_latest_command_wins_and_applies_once():
+    buffer, sim = CommandBuffer(['a', 'b']), FakeStepper()
+    assert buffer.torque('a', 1.0) is None
+    assert buffer.torque('a', 2.0) is None
+    buffer.enable('b', False)
+    buffer.apply(sim, 0.0)
+    assert sim.torque == {'a': 2.0} and sim.enabled == {'b': False}
+    sim.torque.clear()
+    buffer.apply(sim, 0.01)
+    assert sim.torque == {}
+
+
+@pytest.mark.parametrize('value', [math.nan, math.inf, -math.inf])
+def test_non_finite_torque_is_rejected_and_the_last_good_one_kept(value):
+    buffer, sim = CommandBuffer(['a']), FakeStepper()
+    buffer.torque('a', 0.5)
+    assert 'not finite' in buffer.torque('a', value)
+    buffer.apply(sim, 0.0)
+    assert sim.torque == {'a': 0.5}
+
+
+def test_joint_commands_apply_the_valid_entries_and_name_the_bad_ones():
+    buffer, sim = CommandBuffer(['a', 'b']), FakeStepper()
+    problems = buffer.joint_commands(['b', 'zz', 'a'], [1.0, 2.0, math.nan])
+    assert len(problems) == 2
+    assert "unknown joint 'zz' (joints: a, b)" in problems[0] and 'not finite' in problems[1]
+    buffer.apply(sim, 0.0)
+    assert sim.torque == {'b': 1.0}
+    assert buffer.joint_commands(['a'], [1.0, 2.0]) == ['1 names but 2 efforts: message dropped']
+
+
+def test_timeout_drops_a_held_torque_once_and_a_new_command_rearms_it():
+    buffer, sim = CommandBuffer(['a', 'b'], command_timeout=0.2), FakeStepper()
+    buffer.reset([0.0, 3.0])            # b starts with a non-zero scene torque
+    buffer.torque('a', 1.0)
+    buffer.apply(sim, 0.0)
+    assert buffer.apply(sim, 0.2) == []                       # not yet: 0.2 s is not > 0.2 s
+    notices = buffer.apply(sim, 0.21)
+    assert len(notices) == 2 and sim.torque == {'a': 0.0, 'b': 0.0}
+    assert buffer.apply(sim, 0.5) == []                       # said once per silence
+    buffer.torque('a', -1.0)
+    buffer.apply(sim, 0.6)
+    assert buffer.apply(sim, 0.8) == [] and len(buffer.apply(sim, 0.81)) == 1
+
+
+def test_zero_timeout_holds_forever():
+    buffer, sim = CommandBuffer(['a']), FakeStepper()
+    buffer.torque('a', 1.0)
+    buffer.apply(sim, 0.0)
+    assert buffer.apply(sim, 1e6) == [] and sim.torque == {'a': 1.0}

@@ -1,0 +1,194 @@
+"""The node over real DDS: the node runs in a child process, the client is this test's node.
+
+Every wait is on a condition with a timeout (conftest `wait_for`), never a fixed sleep.
+"""
+
+import math
+import subprocess
+import sys
+import time
+
+import pytest
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool, Float64
+from std_srvs.srv import SetBool, Trigger
+
+from helpers.ros_client import DT_NS, Inbox, call, node_services, publisher, stamp_ns
+
+
+def test_topics_services_and_types(sim, ros_node, wait_for):
+    child = sim('--scene', 'double_pendulum')
+    expected = {
+        '/joint_states': 'sensor_msgs/msg/JointState',
+        '/joint_commands': 'sensor_msgs/msg/JointState',
+        '/clock': 'rosgraph_msgs/msg/Clock',
+        '/affine_joint_sim/scene': 'std_msgs/msg/String',
+        '/joints/shoulder/external_torque': 'std_msgs/msg/Float64',
+        '/joints/elbow/external_torque': 'std_msgs/msg/Float64',
+        '/joints/shoulder/external_torque/is_constrained': 'std_msgs/msg/Bool',
+        '/joints/elbow/external_torque/is_constrained': 'std_msgs/msg/Bool',
+    }
+
+    def seen():
+        topics = dict(ros_node.get_topic_names_and_types())
+        return all(topics.get(name) == [kind] for name, kind in expected.items())
+
+    assert wait_for(seen), dict(ros_node.get_topic_names_and_types())
+    services = node_services(ros_node)
+    assert services['/affine_joint_sim/reset'] == ['std_srvs/srv/Trigger']
+    assert services['/affine_joint_sim/pause'] == ['std_srvs/srv/SetBool']
+    assert services['/affine_joint_sim/step'] == ['std_srvs/srv/Trigger']
+    states = Inbox(ros_node, 'joint_states')
+    assert wait_for(lambda: states.last is not None)
+    assert list(states.last.name) == ['shoulder', 'elbow']
+    assert 'Traceback' not in child.stop()
+
+
+@pytest.mark.parametrize('torque', [2.0, -2.0])
+def test_torque_turns_the_joint_by_the_right_hand_rule(sim, ros_node, wait_for, torque):
+    sim('--mode', 'realtime', '--real-time-factor', '2.0')
+    states = Inbox(ros_node, 'joint_states')
+    pub = publisher(ros_node, wait_for, 'joint_torque', 'shoulder')
+    pub.publish(Float64(data=torque))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == torque)
+    # From rest, +tau about +x (x1 - x0) raises the angle: it passes 0.2 rad within ~0.3 s.
+    assert wait_for(lambda: math.copysign(1.0, torque) * states.last.position[0] > 0.2)
+
+
+def test_disabled_torque_is_not_applied(sim, ros_node, wait_for):
+    sim('--mode', 'realtime', '--real-time-factor', '2.0')
+    states = Inbox(ros_node, 'joint_states')
+    publisher(ros_node, wait_for, 'joint_torque', 'shoulder').publish(Float64(data=1.5))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 1.5)
+    publisher(ros_node, wait_for, 'joint_enable', 'shoulder').publish(Bool(data=False))
+    assert wait_for(lambda: states.last.effort[0] == 0.0)
+    seen = len(states.messages)
+    assert wait_for(lambda: len(states.messages) > seen + 20)
+    assert all(m.effort[0] == 0.0 for m in states.since(seen))
+
+
+def test_nan_torque_is_dropped_with_a_warning_and_the_node_stays_up(sim, ros_node, wait_for):
+    child = sim('--mode', 'realtime', '--real-time-factor', '2.0')
+    states = Inbox(ros_node, 'joint_states')
+    pub = publisher(ros_node, wait_for, 'joint_torque', 'shoulder')
+    pub.publish(Float64(data=0.75))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 0.75)
+    pub.publish(Float64(data=float('nan')))
+    pub.publish(Float64(data=float('inf')))
+    seen = len(states.messages)
+    assert wait_for(lambda: len(states.messages) > seen + 30)
+    assert all(m.effort[0] == 0.75 and math.isfinite(m.position[0])
+               for m in states.since(seen))
+    assert child.poll() is None
+    output = child.stop()
+    assert '/joints/shoulder/external_torque: torque nan' in output, output
+    assert 'Traceback' not in output
+
+
+def test_joint_commands_set_several_joints_at_once(sim, ros_node, wait_for):
+    sim('--scene', 'double_pendulum', '--mode', 'realtime')
+    states = Inbox(ros_node, 'joint_states')
+    pub = publisher(ros_node, wait_for, 'joint_commands')
+    pub.publish(JointState(name=['elbow', 'shoulder'], effort=[-0.5, 1.25]))
+    assert wait_for(lambda: states.last is not None and list(states.last.effort) == [1.25, -0.5])
+
+
+def test_command_timeout_drops_a_silent_joints_torque_once(sim, ros_node, wait_for):
+    child = sim('--mode', 'realtime', '--real-time-factor', '2.0', '--command-timeout', '0.2')
+    states = Inbox(ros_node, 'joint_states')
+    publisher(ros_node, wait_for, 'joint_torque', 'shoulder').publish(Float64(data=1.0))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 1.0)
+    applied = [stamp_ns(m) for m in states.messages if m.effort[0] == 1.0]
+    assert wait_for(lambda: states.last.effort[0] == 0.0)
+    dropped = stamp_ns(next(m for m in states.messages
+                            if stamp_ns(m) > applied[0] and m.effort[0] == 0.0))
+    # The torque acts in the steps starting up to 0.2 s after the one it was applied to.
+    assert dropped - applied[0] == pytest.approx(0.2e9, abs=1.5 * DT_NS)
+    output = child.stop()
+    assert output.count('command_timeout 0.2 s') == 1, output
+
+
+def test_pause_step_reset_and_clock(sim, ros_node, wait_for):
+    sim('--mode', 'fast')
+    states = Inbox(ros_node, 'joint_states')
+    clock = Inbox(ros_node, 'clock')
+    publisher(ros_node, wait_for, 'joint_torque', 'shoulder').publish(Float64(data=1.0))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 1.0)
+    result = call(ros_node, wait_for, SetBool, '/affine_joint_sim/pause', SetBool.Request(data=True))
+    assert result.success, result.message
+    step = call(ros_node, wait_for, Trigger, '/affine_joint_sim/step', Trigger.Request())
+    assert step.success, step.message
+    before = int(step.message.split()[1].rstrip(',')) * DT_NS      # 'step N, t = ... s'
+    # Fast mode may have left a backlog: wait until the stepped state is the newest.
+    assert wait_for(lambda: stamp_ns(states.last) == before)
+    for k in range(1, 4):
+        assert call(ros_node, wait_for, Trigger, '/affine_joint_sim/step', Trigger.Request()).success
+        assert wait_for(lambda: stamp_ns(states.last) == before + k * DT_NS)
+        assert wait_for(lambda: (clock.last.clock.sec * 10**9 + clock.last.clock.nanosec) ==
+                        before + k * DT_NS)
+    reset = call(ros_node, wait_for, Trigger, '/affine_joint_sim/reset', Trigger.Request())
+    assert reset.success, reset.message
+    assert wait_for(lambda: stamp_ns(states.last) == 0)
+    assert states.last.position[0] == 0.0 and states.last.effort[0] == 0.0
+    resume = call(ros_node, wait_for, SetBool, '/affine_joint_sim/pause', SetBool.Request(data=False))
+    assert resume.success
+    assert wait_for(lambda: stamp_ns(states.last) > 10 * DT_NS)
+    refused = call(ros_node, wait_for, Trigger, '/affine_joint_sim/step', Trigger.Request())
+    assert not refused.success and 'not paused' in refused.message
+
+
+def _lockstep_run(sim, ros_node):
+    """States of the node in lockstep for 0.5 s under the demo PD controller (this process)."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    from affine_joint_sim.ros.controller import PDController
+
+    child = sim('--scene', 'double_pendulum', '--mode', 'lockstep', '--duration', '0.5')
+    controller = PDController({'shoulder': 0.5, 'elbow': -0.3}, kp=40.0, kd=4.0,
+                              context=ros_node.context)
+    states = Inbox(controller, 'joint_states')
+    executor = SingleThreadedExecutor(context=ros_node.context)
+    executor.add_node(controller)
+    deadline = time.monotonic() + 30.0
+    while len(states.messages) < 51 and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.1)
+    output = child.stop()
+    executor.shutdown()
+    controller.destroy_node()
+    assert 'Traceback' not in output
+    return [(stamp_ns(m), bytes(m.position), bytes(m.velocity), bytes(m.effort))
+            for m in states.messages]
+
+
+def test_lockstep_closed_loop_is_bit_identical(sim, ros_node, wait_for):
+    first = _lockstep_run(sim, ros_node)
+    second = _lockstep_run(sim, ros_node)
+    assert [s[0] for s in first] == [k * DT_NS for k in range(51)]
+    assert first == second
+    assert first[-1][3] != first[1][3]          # the controller did act
+
+
+@pytest.mark.parametrize('flags, message', [
+    (['--scene', 'no_such_scene'], "parameter 'scene': scene 'no_such_scene' is neither"),
+    (['--real-time-factor', '0'], "parameter 'real_time_factor': 0.0 is out of range"),
+    (['--command-timeout', 'nan'], "parameter 'command_timeout': nan is out of range"),
+    (['--ros-args', '-p', 'mode:=slow'], "parameter 'mode': 'slow' is not one of realtime"),
+    (['--device', 'gpu7'], "parameter 'device':"),
+])
+def test_bad_parameter_exits_with_a_clear_error(flags, message):
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', *flags],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert message in done.stderr, done.stderr
+    assert 'Traceback' not in done.stderr
+
+
+def test_bad_scene_file_names_the_key_path(tmp_path):
+    scene = tmp_path / 'bad.yaml'
+    scene.write_text('name: bad\nbodies:\n  - {name: a, shape: {box: [1, 1, 1]}, mass: -1}\n'
+                     'joints: []\n')
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--scene',
+                           str(scene)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    assert 'bodies[0].mass' in done.stderr and 'Traceback' not in done.stderr
