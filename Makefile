@@ -28,7 +28,7 @@ define install_project
 	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test,bench]'
 endef
 
-.PHONY: venv run test bench lock clean
+.PHONY: venv run test bench bags lock clean
 
 venv: $(STAMP)
 
@@ -39,8 +39,17 @@ $(STAMP): setup.py $(CONSTRAINTS)
 	$(call install_project,$(PY),-c $(CONSTRAINTS))
 	@touch $@
 
+# The node and the demo PD controller, closed loop over DDS; records a bag under results/.
 run: venv
-	$(VENV)/bin/affine-joint-sim run --scene pendulum --torque shoulder=2.0 --duration 2.0
+	$(VENV)/bin/affine-joint-sim demo --record results/demo-$$(date +%Y%m%d-%H%M%S)
+
+# Regenerates the sample bags in bags/ with the project's own recorder: the demo (lockstep PD
+# loop) and a torque step response (2 N·m on the pendulum's shoulder, sent while it runs).
+bags: venv
+	rm -rf bags/demo_pd bags/torque_step
+	$(VENV)/bin/affine-joint-sim demo --duration 3 --record bags/demo_pd
+	$(VENV)/bin/affine-joint-sim run --mode realtime --duration 2 --record bags/torque_step & \
+	  sleep 1 && $(VENV)/bin/affine-joint-sim torque shoulder 2.0; wait
 
 test: venv
 	$(PY) -m pytest -q test

@@ -1,8 +1,8 @@
 """The ``affine-joint-sim`` command line (design.md §6).
 
 Subcommands: ``run`` (the node), ``torque`` / ``enable`` / ``echo`` (talk to a running node
-without the ``ros2`` CLI), ``controller`` (the demo PD controller), ``demo`` (``make run``) and
-``bench``. ROS arguments go last, after ``--ros-args`` (e.g. ``--params-file``, remappings).
+without the ``ros2`` CLI), ``controller`` (the demo PD controller), ``demo`` (``make run``),
+``replay`` (bags) and ``bench``. ROS arguments go last, after ``--ros-args`` (e.g. ``--params-file``, remappings).
 Modules behind a subcommand are imported only when it runs, so ``--help`` is quick.
 """
 
@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from affine_joint_sim.resources import packaged_scenes
-from affine_joint_sim.ros.parameters import MODES
+from affine_joint_sim.ros.parameters import MODES, STORAGES
 from affine_joint_sim.scene import SceneError
 
 __all__ = ['main']
@@ -74,6 +74,11 @@ def _demo(args, ros_args) -> int:
     from affine_joint_sim.ros import demo
     return demo.run_demo(args.scene, dict(args.target), args.duration, args.mode, args.record,
                          args.kp, args.kd)
+
+
+def _replay(args, ros_args) -> int:
+    from affine_joint_sim.ros import replay
+    return replay.main(args)
 
 
 def _bench(args, ros_args) -> int:
@@ -167,6 +172,27 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument('--record', type=Path, default=None, help='bag directory')
     _add_gains(demo)
     demo.set_defaults(func=_demo)
+
+    replay = commands.add_parser(
+        'replay', help='re-simulate a recorded bag and compare, or re-publish it',
+        description='Re-simulate BAG from its own scene and commands and compare with the '
+                    'recorded joint states (exit 1 above --tol, 2 on errors); with --scene, '
+                    'a what-if against another scene; with --publish, play its commands on ROS.')
+    replay.add_argument('bag', type=Path, help='rosbag2 directory (or one .mcap/.db3 file)')
+    replay.add_argument('--tol', type=float, default=1e-9,
+                        help='largest |Δθ| [rad] or |Δω| [rad/s] accepted (default: %(default)g, '
+                             'for the same device and precision)')
+    replay.add_argument('--scene', help='replay against this scene file instead (what-if)')
+    replay.add_argument('--device', default='cpu', help='Warp device (default: cpu)')
+    replay.add_argument('--out', type=Path, help='write the re-simulated run as a bag here')
+    replay.add_argument('--storage', default='mcap', choices=STORAGES,
+                        help='storage of --out (default: mcap)')
+    replay.add_argument('--publish', action='store_true',
+                        help='publish the recorded commands on ROS at recorded timing instead')
+    replay.add_argument('--rate', type=float, default=1.0,
+                        help='--publish speed factor (default: 1 = recorded timing)')
+    _add_namespace(replay)
+    replay.set_defaults(func=_replay)
 
     from affine_joint_sim import bench as bench_sections
     bench = commands.add_parser('bench', help='speed and accuracy measurements',

@@ -40,6 +40,4 @@ def run_demo(scene: str, targets: dict[str, float], duration: float, mode: str,
     print(f'\n--- demo summary ({time.monotonic() - start:.1f} s wall) ---')
     print(node_report.rstrip())
     print(controller_report.rstrip())
-    if record is not None and node.returncode == 0:
-        print(f'bag: {record.resolve()}')
     return node.returncode

@@ -12,22 +12,25 @@ its wait set in Python.) The node does no physics itself.
 
 import sys
 import threading
+from pathlib import Path
 import time
 import warnings
 
 import rclpy
+import yaml
 from rclpy.duration import Duration
 from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.executors import (ExternalShutdownException, ShutdownException,
                              SingleThreadedExecutor)
 from rclpy.node import Node
-from rclpy.parameter import Parameter
+from rclpy.serialization import deserialize_message, serialize_message
 from rcl_interfaces.msg import SetParametersResult
 from std_srvs.srv import SetBool, Trigger
 
 from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.pacing import Pacer
+from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check
 from affine_joint_sim.ros.topics import load_topics
 from affine_joint_sim.scene import Scene, SceneError
@@ -70,11 +73,22 @@ class SimNode(Node):
         self.paused = False
         self._released = False          # lockstep: a joint_commands message came since last step
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
+        self._requests: list[dict] = []        # work for the stepping thread (services, params)
+        self._stepping_thread = None
         self._dt_ns = round(self.scene.dt * 1e9)
         self._last_warning: dict[str, float] = {}
         self._previous_showwarning = warnings.showwarning
         warnings.showwarning = self._log_simulation_warning
+        self._command_topics: list[BagTopic] = []
+        self._inbox: list[tuple[str, bytes]] = []     # commands received, not yet recorded
+        self._epoch_ns = 0
+        self.recorder = None
         self._make_interfaces()
+        self.recorder = self._open_bag()
+        scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
+        self._publish_and_record(self.scene_pub, scene_msg, 0)
+        self._event({'event': 'start', **{k: self.config[k] for k in
+                                          ('mode', 'device', 'command_timeout')}})
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._started = (time.monotonic(), 0)
         self.get_logger().info(
@@ -108,7 +122,8 @@ class SimNode(Node):
         # Latched: the scene as run, every default spelled out, for late joiners and bags.
         self.scene_pub = self.create_publisher(t['scene'].msg_class, t['scene'].name(),
                                                t['scene'].qos)
-        self.scene_pub.publish(t['scene'].msg_class(data=self.scene.to_yaml()))
+        self.events_pub = self.create_publisher(t['events'].msg_class, t['events'].name(),
+                                                t['events'].qos)
         for joint in self.sim.joint_names:
             self._subscribe('joint_torque', joint, self._on_torque)
             self._subscribe('joint_enable', joint, self._on_enable)
@@ -118,27 +133,60 @@ class SimNode(Node):
         self.create_service(Trigger, '~/step', self._on_step)
 
     def _subscribe(self, key, joint, handler):
+        """Subscribe raw (CDR bytes, as the bag keeps them) and hand the decoded message on."""
         topic = self.topics[key]
-        name = topic.name(joint)
-        self.create_subscription(topic.msg_class, name,
-                                 lambda msg: handler(msg, name, joint), topic.qos)
+        name = self.resolve_topic_name(topic.name(joint))
+        msg_class = topic.msg_class
+
+        def receive(raw):
+            with self._wake:
+                if self.recorder is not None:
+                    self._inbox.append((name, raw))
+                handler(deserialize_message(raw, msg_class), name, joint)
+
+        self.create_subscription(msg_class, name, receive, topic.qos, raw=True)
+        self._command_topics.append(BagTopic(name, topic.type, topic.qos))
+
+    def _open_bag(self):
+        """The recorder (``record`` set), with every topic the node publishes or takes."""
+        if not self.config['record']:
+            return None
+        t = self.topics
+        topics = self._command_topics + [
+            BagTopic(self.resolve_topic_name(t[key].name()), t[key].type, t[key].qos)
+            for key in ('joint_states', 'clock', 'scene', 'events')]
+        try:
+            return BagRecorder(self.config['record'], self.config['storage'], topics)
+        except (FileExistsError, OSError) as exc:
+            raise ConfigError(f"parameter 'record': {exc}") from None
+
+    def _publish_and_record(self, publisher, msg, t_ns):
+        publisher.publish(msg)
+        if self.recorder is not None:
+            self.recorder.write(publisher.topic_name, t_ns, serialize_message(msg))
+
+    def _event(self, event: dict):
+        """Publish (and record) an event of the run, e.g. a reset, at the current bag time."""
+        msg = self.topics['events'].msg_class(data=yaml.safe_dump(event, sort_keys=False))
+        self._publish_and_record(self.events_pub, msg, self._bag_ns())
+
+    def _bag_ns(self) -> int:
+        """Bag time [ns]: simulated time, continued across resets."""
+        return self._epoch_ns + self.sim_time_ns
 
     # ---- commands ---------------------------------------------------------------------------
 
     def _on_torque(self, msg, topic, joint):
-        with self._wake:
-            self._reject(topic, self.commands.torque(joint, msg.data))
+        self._reject(topic, self.commands.torque(joint, msg.data))
 
     def _on_enable(self, msg, topic, joint):
-        with self._wake:
-            self.commands.enable(joint, msg.data)
+        self.commands.enable(joint, msg.data)
 
     def _on_joint_commands(self, msg, topic, _):
-        with self._wake:
-            for problem in self.commands.joint_commands(list(msg.name), list(msg.effort)):
-                self._reject(topic, problem)
-            self._released = True
-            self._wake.notify()
+        for problem in self.commands.joint_commands(list(msg.name), list(msg.effort)):
+            self._reject(topic, problem)
+        self._released = True
+        self._wake.notify()
 
     def _reject(self, topic, problem):
         """Warn about a dropped command, at most once per ``_WARN_EVERY`` s per topic."""
@@ -147,7 +195,7 @@ class SimNode(Node):
         now = time.monotonic()
         if now - self._last_warning.get(topic, -_WARN_EVERY) >= _WARN_EVERY:
             self._last_warning[topic] = now
-            self.get_logger().warning(f'{self.resolve_topic_name(topic)}: {problem}')
+            self.get_logger().warning(f'{topic}: {problem}')
 
     def _log_simulation_warning(self, message, category, *args, **kwargs):
         if issubclass(category, SimulationWarning):
@@ -157,11 +205,38 @@ class SimNode(Node):
 
     # ---- services ---------------------------------------------------------------------------
 
-    def _on_reset(self, request, response):
+    def _in_stepping_thread(self, action):
+        """Run ``action()`` in the stepping thread between two steps; return its result.
+
+        The stepper and the bag writer stay in one thread (a CUDA context and an SQLite
+        connection belong to the thread that made them). Returns None if the node stops first.
+        """
+        if self._stepping_thread in (None, threading.current_thread()):
+            return action()
+        request = {'action': action, 'done': threading.Event()}
         with self._wake:
-            self.reset()
+            self._requests.append(request)
             self._wake.notify()
-        response.success, response.message = True, 'reset to the initial state, t = 0'
+        while not request['done'].wait(0.1):
+            if not self.context.ok():
+                return None
+        return request.get('result')
+
+    def _serve_requests(self, stopping: bool = False):
+        """Run (or, when stopping, cancel) the queued requests; called with the lock held."""
+        for request in self._requests:
+            if not stopping:
+                request['result'] = request['action']()
+            request['done'].set()
+        self._requests.clear()
+
+    def _on_reset(self, request, response):
+        def reset():
+            self.reset()
+            return 'reset to the initial state, t = 0'
+
+        message = self._in_stepping_thread(reset)
+        response.success, response.message = message is not None, message or 'node stopping'
         return response
 
     def _on_pause(self, request, response):
@@ -176,13 +251,14 @@ class SimNode(Node):
         return response
 
     def _on_step(self, request, response):
-        if not self.paused:
-            response.success, response.message = False, 'not paused: call ~/pause first'
-            return response
-        with self._wake:
+        def step():
+            if not self.paused:
+                return False, 'not paused: call ~/pause first'
             self.step()
-        response.success = True
-        response.message = f'step {self.sim.step_count}, t = {self.sim.time:.6f} s'
+            return True, f'step {self.sim.step_count}, t = {self.sim.time:.6f} s'
+
+        response.success, response.message = self._in_stepping_thread(step) or \
+            (False, 'node stopping')
         return response
 
     def _on_set_parameters(self, parameters):
@@ -197,14 +273,18 @@ class SimNode(Node):
                 check(p.name, p.value)
             except ConfigError as exc:
                 return SetParametersResult(successful=False, reason=str(exc))
-        with self._wake:
-            for p in parameters:
-                if p.name in PARAMETERS:
-                    self.config[p.name] = p.value
+        changed = {p.name: p.value for p in parameters if p.name in PARAMETERS}
+
+        def apply():
+            self.config.update(changed)
+            self._event({'event': 'parameters', **changed})
             self.commands.command_timeout = self.config['command_timeout']
             self.pacer.real_time_factor = self.config['real_time_factor']
             self.pacer.anchor(self.sim.time)
-            self._wake.notify()
+            return True
+
+        if changed:
+            self._in_stepping_thread(apply)
         return SetParametersResult(successful=True)
 
     # ---- stepping ---------------------------------------------------------------------------
@@ -216,21 +296,42 @@ class SimNode(Node):
 
     def reset(self):
         """Back to the scene's initial state at t = 0; publishes that state."""
+        self._record_inbox()         # taken before the reset: recorded, then cleared by it
+        if self.sim.step_count:
+            self._epoch_ns += self.sim_time_ns + self._dt_ns
         self.sim.reset()
+        self._event({'event': 'reset'})
         self.commands.reset(self.sim.torques)
         self._released = False
         self.pacer.anchor(0.0)
         self.pacer.restart_window(0.0)
         self._started = (time.monotonic(), 0)
+        self._last_step_wall = self._started[0]
         self.publish_state()
 
     def step(self):
-        """Apply the queued commands, advance one dt, publish the new state."""
+        """Record and apply the queued commands, advance one dt, publish the new state."""
+        self._record_inbox()
         for notice in self.commands.apply(self.sim, self.sim.time):
             self.get_logger().warning(notice)
         self.sim.step()
+        self._last_step_wall = time.monotonic()
         self._released = False
         self.publish_state()
+
+    def _record_inbox(self):
+        """Record the commands taken since the last step at the current bag time."""
+        if self.recorder is not None:
+            t_ns = self._bag_ns()
+            for topic, raw in self._inbox:
+                self.recorder.write(topic, t_ns, raw)
+        self._inbox.clear()
+
+    def close_bag(self):
+        """Finish the bag (if recording): the last split and metadata.yaml."""
+        if self.recorder is not None:
+            self._record_inbox()
+            self.recorder.close()
 
     def publish_state(self):
         """Publish joint_states (and /clock) for the current step."""
@@ -240,10 +341,13 @@ class SimNode(Node):
         msg.position = self.sim.angles.tobytes()
         msg.velocity = self.sim.velocities.tobytes()
         msg.effort = self.sim.efforts.tobytes()
-        self.state_pub.publish(msg)
+        t_ns = self._bag_ns()
+        self._publish_and_record(self.state_pub, msg, t_ns)
         if self.config['publish_clock']:
             self._clock_msg.clock.sec, self._clock_msg.clock.nanosec = sec, nanosec
-            self.clock_pub.publish(self._clock_msg)
+            self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
+        if self.recorder is not None:
+            self.recorder.flush_if_due()
 
     def _wait_before_step(self) -> float:
         """Wall seconds until the next step is due (inf while paused or awaiting lockstep)."""
@@ -288,6 +392,7 @@ class SimNode(Node):
                     self._wake.notify()
 
         spinner = threading.Thread(target=spin, name='ros_callbacks', daemon=True)
+        self._stepping_thread = threading.current_thread()
         with self._wake:
             self.reset()
         self._window_start = time.monotonic()
@@ -295,6 +400,7 @@ class SimNode(Node):
         try:
             while self.context.ok() and not failure and not self._finished():
                 with self._wake:
+                    self._serve_requests()
                     wait = self._wait_before_step()
                     if wait > 0.0:
                         self._wake.wait(min(wait, 0.1))
@@ -302,6 +408,8 @@ class SimNode(Node):
                     self.step()
                 self._check_rate()
         finally:
+            with self._wake:
+                self._serve_requests(stopping=True)
             executor.shutdown(timeout_sec=1.0)
             spinner.join(timeout=1.0)
         if failure:
@@ -313,13 +421,14 @@ class SimNode(Node):
 
     def summary(self) -> dict:
         """Figures of the run since the last reset: steps, wall time, steps/s, real-time factor."""
-        wall = time.monotonic() - self._started[0]
+        wall = self._last_step_wall - self._started[0]
         steps = self.sim.step_count - self._started[1]
         return {'steps': steps, 'sim_time': self.sim.time, 'wall_time': wall,
                 'steps_per_second': steps / wall if wall > 0 else 0.0,
                 'real_time_factor': self.sim.time / wall if wall > 0 else 0.0,
                 'fell_behind': self.pacer.fell_behind, 'mode': self.config['mode'],
-                'angles': dict(zip(self.sim.joint_names, self.sim.angles.tolist()))}
+                'angles': dict(zip(self.sim.joint_names, self.sim.angles.tolist())),
+                'bag': self.config['record'] or None}
 
     def destroy_node(self):
         warnings.showwarning = self._previous_showwarning
@@ -333,7 +442,7 @@ def main(args=None, parameter_overrides=None) -> int:
     """
     import warp as wp
 
-    wp.config.quiet = True      # the node reports through ROS logging and its summary
+    wp.config.log_level = wp.LOG_WARNING    # the node reports through ROS logging and its summary
     rclpy.init(args=args)
     node = None
     try:
@@ -348,6 +457,7 @@ def main(args=None, parameter_overrides=None) -> int:
         pass
     finally:
         if node is not None:
+            node.close_bag()
             print_summary(node.summary())
             node.destroy_node()
         rclpy.try_shutdown()
@@ -362,6 +472,8 @@ def print_summary(summary: dict) -> None:
           f'{summary["real_time_factor"]:.3g}')
     print('final angles [rad]: ' + ', '.join(f'{k} {v:.6f}'
                                               for k, v in summary['angles'].items()))
+    if summary['bag']:
+        print(f'bag: {Path(summary["bag"]).resolve()}')
     sys.stdout.flush()
 
 

@@ -13,9 +13,11 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from affine_joint_sim.resources import config_dir
 
-__all__ = ['Topic', 'TOPIC_KEYS', 'load_topics', 'message_class']
+__all__ = ['Topic', 'TOPIC_KEYS', 'COMMAND_KEYS', 'load_topics', 'message_class']
 
-TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_commands', 'joint_states', 'clock', 'scene')
+TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_commands', 'joint_states', 'clock', 'scene',
+              'events')
+COMMAND_KEYS = ('joint_torque', 'joint_enable', 'joint_commands')
 
 _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
                 'best_effort': ReliabilityPolicy.BEST_EFFORT}

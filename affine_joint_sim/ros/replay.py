@@ -1,0 +1,345 @@
+"""Offline replay of a recorded bag: re-simulate, compare, what-if, or re-publish on ROS.
+
+A bag from the node holds the scene (``~/scene``), the run's events (``~/events``: start with
+its parameters, resets, parameter changes), every command as received at the bag time of the
+step it applied to, and ``joint_states``. Replay applies the commands through the node's own
+``CommandBuffer`` (same latest-wins, non-finite rejection and command timeout) before the
+same steps, so a replay on the same device and precision reproduces the run bit for bit.
+With another scene (another dt, integrator, torque_model, ...) a command recorded at time t
+applies from the first step starting at or after t, and the recorded states are compared with
+the re-simulated trajectory interpolated linearly at their stamps: the offline what-if tool.
+"""
+
+import math
+import re
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+from rclpy.serialization import deserialize_message, serialize_message
+from rosbags.rosbag2 import Reader
+
+from affine_joint_sim.ros.commands import CommandBuffer
+from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
+from affine_joint_sim.ros.topics import COMMAND_KEYS, load_topics, message_class
+from affine_joint_sim.scene import Scene, SceneError
+
+__all__ = ['ReplayError', 'Divergence', 'read_bag', 'replay', 'publish']
+
+_EPS_NS = 1000          # [ns]: times closer than this are the same step
+
+
+class ReplayError(Exception):
+    """The bag cannot be replayed; the message says why (for the command line, exit 2)."""
+
+
+@dataclass
+class Divergence:
+    """Largest differences between recorded and re-simulated joint states.
+
+    Attributes:
+        joint_names: joints, in scene order.
+        max_angle: max |Δθ| per joint [rad] (wrapped joints compare modulo 2π).
+        max_velocity: max |Δω| per joint [rad/s].
+        states: number of recorded states compared.
+    """
+
+    joint_names: list[str]
+    max_angle: np.ndarray
+    max_velocity: np.ndarray
+    states: int = 0
+
+    def worst(self) -> float:
+        return float(max(self.max_angle.max(initial=0.0), self.max_velocity.max(initial=0.0)))
+
+    def table(self) -> str:
+        width = max([5] + [len(n) for n in self.joint_names])
+        lines = [f'{"joint":<{width}}  {"max |Δθ| [rad]":>15}  {"max |Δω| [rad/s]":>17}']
+        lines += [f'{n:<{width}}  {a:15.3e}  {w:17.3e}'
+                  for n, a, w in zip(self.joint_names, self.max_angle, self.max_velocity)]
+        return '\n'.join(lines)
+
+
+@dataclass
+class _Message:
+    kind: str           # a command key, 'joint_states', 'scene', 'events' or '' (other)
+    topic: str
+    t_ns: int
+    raw: bytes
+    msgtype: str
+    joint: str | None = None
+
+
+@dataclass
+class RecordedBag:
+    """What replay needs from a bag, in bag order."""
+
+    path: Path
+    messages: list[_Message] = field(default_factory=list)
+    scene_yaml: str | None = None
+    command_topics: dict[str, str] = field(default_factory=dict)     # topic name -> msgtype
+
+
+def _classifier():
+    """Map a bag topic name to (kind, joint) using the patterns of topics.yaml."""
+    topics = load_topics()
+    patterns = []
+    for key, topic in topics.items():
+        body = re.escape(topic.template.lstrip('~/')).replace(re.escape('{joint}'),
+                                                               r'(?P<joint>[A-Za-z_]\w*)')
+        patterns.append((key, re.compile(rf'^(.*/)?{body}$')))
+
+    def classify(name: str):
+        for key, pattern in patterns:
+            match = pattern.match(name)
+            if match:
+                return key, match.groupdict().get('joint')
+        return '', None
+
+    return classify
+
+
+def read_bag(path) -> RecordedBag:
+    """Read every message of a bag (rosbag2 directory, or a single .mcap/.db3 file).
+
+    Raises:
+        ReplayError: missing path, not a bag, or a damaged one.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ReplayError(f'{path}: no such file or directory')
+    classify = _classifier()
+    bag = RecordedBag(path)
+    try:
+        with Reader(path) as reader:
+            for connection, t_ns, raw in reader.messages():
+                kind, joint = classify(connection.topic)
+                message = _Message(kind, connection.topic, t_ns, bytes(raw), connection.msgtype,
+                                   joint)
+                if kind == 'scene' and bag.scene_yaml is None:
+                    bag.scene_yaml = deserialize_message(raw, message_class(
+                        connection.msgtype)).data
+                if kind in COMMAND_KEYS:
+                    bag.command_topics[connection.topic] = connection.msgtype
+                bag.messages.append(message)
+    except ReplayError:
+        raise
+    except Exception as exc:       # rosbags raises several types for foreign or damaged files
+        raise ReplayError(f'{path}: not a readable rosbag2 bag ({type(exc).__name__}: '
+                          f'{exc})') from None
+    return bag
+
+
+def _scene_of(bag: RecordedBag, scene_path) -> Scene:
+    if scene_path is not None:
+        return Scene.from_yaml(scene_path)
+    if bag.scene_yaml is None:
+        raise ReplayError(f'{bag.path}: the bag holds no scene (~/scene); give one with --scene')
+    return Scene.from_yaml_text(bag.scene_yaml, source=f'{bag.path} (~/scene)')
+
+
+class _Resimulation:
+    """The stepper driven by recorded commands, sampled at recorded stamps.
+
+    ``on_state(bag_ns, stamp_ns, sim)`` is called for the initial state and after every step.
+    """
+
+    def __init__(self, scene: Scene, device: str, on_state=None):
+        from affine_joint_sim.stepper import Stepper
+
+        self.sim = Stepper(scene, device=device)
+        self.dt_ns = round(scene.dt * 1e9)
+        self.wrapped = np.array([j.angle_mode == 'wrapped' for j in scene.joints])
+        self.buffer = CommandBuffer(self.sim.joint_names)
+        self.on_state = on_state
+        self.reset(0)
+
+    def reset(self, epoch_ns: int):
+        """Initial state; bag time ``epoch_ns`` [ns] is its t = 0. Pending commands are dropped."""
+        self.sim.reset()
+        self.buffer.reset(self.sim.torques)
+        self.pending: list[_Message] = []
+        self.epoch_ns = epoch_ns
+        self.previous = self.current = self._sample()
+
+    def _sample(self):
+        sample = self.sim.step_count * self.dt_ns, self.sim.angles, self.sim.velocities
+        if self.on_state is not None:
+            self.on_state(self.epoch_ns + sample[0], sample[0], self.sim)
+        return sample
+
+    def step(self):
+        """Apply the commands due at the current time, then advance one dt."""
+        now = self.epoch_ns + self.sim.step_count * self.dt_ns
+        due = [m for m in self.pending if m.t_ns <= now + _EPS_NS]
+        self.pending = [m for m in self.pending if m.t_ns > now + _EPS_NS]
+        for m in due:
+            msg = deserialize_message(m.raw, message_class(m.msgtype))
+            if m.kind == 'joint_torque':
+                self.buffer.torque(m.joint, msg.data)
+            elif m.kind == 'joint_enable':
+                if m.joint in self.buffer.joint_names:
+                    self.buffer.enable(m.joint, msg.data)
+            else:
+                self.buffer.joint_commands(list(msg.name), list(msg.effort))
+        self.buffer.apply(self.sim, self.sim.time)
+        self.sim.step()
+        self.previous, self.current = self.current, self._sample()
+
+    def at(self, stamp_ns: int):
+        """Angles and velocities at ``stamp_ns`` (since the last reset), stepping as needed."""
+        while self.current[0] < stamp_ns - _EPS_NS:
+            self.step()
+        (t0, a0, w0), (t1, a1, w1) = self.previous, self.current
+        if abs(t1 - stamp_ns) <= _EPS_NS or t1 == t0:
+            return a1, w1
+        s = (stamp_ns - t0) / (t1 - t0)
+        da = np.where(self.wrapped, _wrap(a1 - a0), a1 - a0)
+        return a0 + s * da, w0 + s * (w1 - w0)
+
+
+def _wrap(angle):
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
+           storage: str = 'mcap') -> Divergence:
+    """Re-simulate ``bag`` (with its own scene, or ``scene_path``) and compare joint states.
+
+    ``out``: a bag directory to write the re-simulated run into (scene, commands, states).
+    """
+    scene = _scene_of(bag, scene_path)
+    writer = _OutBag(out, storage, bag, scene) if out is not None else None
+    run = _Resimulation(scene, device, writer.state if writer else None)
+    names = run.sim.joint_names
+    divergence = Divergence(names, np.zeros(len(names)), np.zeros(len(names)))
+    for m in bag.messages:
+        if m.kind in COMMAND_KEYS:
+            run.pending.append(m)
+            if writer:
+                writer.recorder.write(m.topic, m.t_ns, m.raw)
+        elif m.kind == 'events':
+            event = yaml.safe_load(deserialize_message(m.raw, message_class(m.msgtype)).data)
+            if event.get('event') == 'reset':
+                run.reset(m.t_ns)
+            if 'command_timeout' in event:
+                run.buffer.command_timeout = float(event['command_timeout'])
+        elif m.kind == 'joint_states':
+            msg = deserialize_message(m.raw, message_class(m.msgtype))
+            if list(msg.name) != names:
+                raise ReplayError(f'{bag.path}: joint_states name {list(msg.name)}, but the '
+                                  f'scene {scene.name!r} has joints {names}')
+            angle, velocity = run.at(msg.header.stamp.sec * 1_000_000_000 +
+                                     msg.header.stamp.nanosec)
+            d_angle = angle - np.asarray(msg.position)
+            d_angle = np.abs(np.where(run.wrapped, _wrap(d_angle), d_angle))
+            d_velocity = np.abs(velocity - np.asarray(msg.velocity))
+            divergence.max_angle = np.maximum(divergence.max_angle, d_angle)
+            divergence.max_velocity = np.maximum(divergence.max_velocity, d_velocity)
+            divergence.states += 1
+    if writer:
+        writer.recorder.close()
+    return divergence
+
+
+class _OutBag:
+    """The re-simulated run as a bag: its scene, the recorded commands, every new state."""
+
+    def __init__(self, path, storage, bag: RecordedBag, scene: Scene):
+        topics = load_topics()
+        self.states_topic, scene_topic = (self._name(bag, key, topics)
+                                          for key in ('joint_states', 'scene'))
+        bag_topics = [BagTopic(name, msgtype, topics['joint_commands'].qos)
+                      for name, msgtype in bag.command_topics.items()]
+        bag_topics += [BagTopic(self.states_topic, topics['joint_states'].type,
+                                topics['joint_states'].qos),
+                       BagTopic(scene_topic, topics['scene'].type, topics['scene'].qos)]
+        try:
+            self.recorder = BagRecorder(path, storage, bag_topics)
+        except (FileExistsError, OSError) as exc:
+            raise ReplayError(f'--out: {exc}') from None
+        self.recorder.write(scene_topic, 0, serialize_message(
+            topics['scene'].msg_class(data=scene.to_yaml())))
+        self.msg = topics['joint_states'].msg_class(name=[j.name for j in scene.joints])
+
+    @staticmethod
+    def _name(bag, key, topics):
+        recorded = [m.topic for m in bag.messages if m.kind == key]
+        return recorded[0] if recorded else '/' + topics[key].name().lstrip('~/')
+
+    def state(self, bag_ns, stamp_ns, sim):
+        """Write the stepper's current joint state (``stamp_ns`` since the last reset)."""
+        self.msg.header.stamp.sec, self.msg.header.stamp.nanosec = divmod(stamp_ns,
+                                                                          1_000_000_000)
+        self.msg.position = sim.angles.tobytes()
+        self.msg.velocity = sim.velocities.tobytes()
+        self.msg.effort = sim.efforts.tobytes()
+        self.recorder.write(self.states_topic, bag_ns, serialize_message(self.msg))
+
+
+def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
+            wait: float = 10.0) -> int:
+    """Re-publish the bag's commands on ROS at recorded timing / ``rate``, like ros2 bag play.
+
+    Waits up to ``wait`` [s] for a subscriber to any command topic first. Returns the number
+    of messages published.
+    """
+    import rclpy
+
+    commands = [m for m in bag.messages if m.kind in COMMAND_KEYS]
+    if not commands:
+        raise ReplayError(f'{bag.path}: the bag holds no commands to publish')
+    topics = load_topics()
+    rclpy.init()
+    node = rclpy.create_node('affine_joint_sim_replay', namespace=namespace)
+    try:
+        publishers = {name: node.create_publisher(message_class(msgtype), name,
+                                                  topics['joint_commands'].qos)
+                      for name, msgtype in bag.command_topics.items()}
+        deadline = time.monotonic() + wait
+        while not any(p.get_subscription_count() for p in publishers.values()):
+            if time.monotonic() > deadline:
+                raise ReplayError(f'nothing subscribes to {", ".join(publishers)} after '
+                                  f'{wait:g} s')
+            time.sleep(0.01)
+        start_wall, start_bag = time.monotonic(), commands[0].t_ns
+        for m in commands:
+            delay = start_wall + (m.t_ns - start_bag) * 1e-9 / rate - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            publishers[m.topic].publish(m.raw)
+        for p in publishers.values():
+            p.wait_for_all_acked()
+        return len(commands)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def main(args) -> int:
+    """``affine-joint-sim replay``: exit 0 within --tol, 1 above, 2 on errors."""
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_WARNING
+    try:
+        bag = read_bag(args.bag)
+        if args.publish:
+            count = publish(bag, args.rate, args.namespace)
+            print(f'published {count} commands from {bag.path}')
+            return 0
+        divergence = replay(bag, args.scene, args.device, args.out, args.storage)
+    except (ReplayError, SceneError, FileNotFoundError) as exc:
+        print(f'affine-joint-sim replay: error: {exc}', file=sys.stderr)
+        return 2
+    what = f'against {args.scene}' if args.scene else 'with its own scene'
+    print(f'{bag.path}: {divergence.states} recorded states re-simulated {what}')
+    print(divergence.table())
+    if args.out:
+        print(f're-simulated run written to {Path(args.out).resolve()}')
+    worst = divergence.worst()
+    verdict = 'within' if worst <= args.tol else 'ABOVE'
+    print(f'largest difference {worst:.3e}: {verdict} --tol {args.tol:g}')
+    return 0 if worst <= args.tol else 1

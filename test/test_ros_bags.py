@@ -1,0 +1,195 @@
+"""Recording and replay: real bags written by the node, read back by rosbags and by replay."""
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+from rclpy.serialization import deserialize_message
+from rosbags.rosbag2 import Reader
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool, Float64
+from std_srvs.srv import Trigger
+
+from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
+from affine_joint_sim.ros.topics import load_topics
+from helpers.ros_client import Inbox, call, publisher, stamp_ns
+
+REPO = Path(__file__).resolve().parent.parent
+SAMPLE_BAGS = sorted(p.parent for p in (REPO / 'bags').glob('*/metadata.yaml'))
+
+
+def cli(*args, timeout=120):
+    return subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def bag_messages(path) -> dict[str, list]:
+    """Every message of a bag, decoded with rclpy, by topic."""
+    from affine_joint_sim.ros.topics import message_class
+
+    by_topic = {}
+    with Reader(path) as reader:
+        for connection, _, raw in reader.messages():
+            msg = deserialize_message(bytes(raw), message_class(connection.msgtype))
+            by_topic.setdefault(connection.topic, []).append(msg)
+    return by_topic
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_record_then_replay_is_exact(sim, ros_node, wait_for, tmp_path, storage):
+    bag = tmp_path / 'run'
+    child = sim('--scene', 'double_pendulum', '--mode', 'realtime', '--real-time-factor', '4',
+                '--record', bag, '--storage', storage)
+    states = Inbox(ros_node, 'joint_states')
+    publisher(ros_node, wait_for, 'joint_torque', 'shoulder').publish(Float64(data=1.5))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 1.5)
+    publisher(ros_node, wait_for, 'joint_commands').publish(
+        JointState(name=['elbow'], effort=[-0.7]))
+    assert wait_for(lambda: states.last.effort[1] == -0.7)
+    publisher(ros_node, wait_for, 'joint_enable', 'shoulder').publish(Bool(data=False))
+    assert wait_for(lambda: states.last.effort[0] == 0.0)
+    assert call(ros_node, wait_for, Trigger, '/affine_joint_sim/reset', Trigger.Request()).success
+    assert wait_for(lambda: stamp_ns(states.last) > 20 * 10_000_000 and
+                    states.last.effort[1] == 0.0)
+    output = child.stop()
+    assert 'Traceback' not in output and f'bag: {bag}' in output
+
+    metadata = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert metadata['version'] == 9 and metadata['storage_identifier'] == storage
+    recorded = bag_messages(bag)
+    assert sum(len(v) for v in recorded.values()) == metadata['message_count']
+    assert recorded['/affine_joint_sim/scene'][0].data.startswith('name: double_pendulum')
+    assert [e.data.split('\n')[0] for e in recorded['/affine_joint_sim/events']] == \
+        ['event: start', 'event: reset', 'event: reset']
+    assert [m.data for m in recorded['/joints/shoulder/external_torque']] == [1.5]
+
+    replayed = cli('replay', bag)
+    assert replayed.returncode == 0, replayed.stdout + replayed.stderr
+    assert f"{len(recorded['/joint_states'])} recorded states" in replayed.stdout
+    assert 'largest difference 0.000e+00' in replayed.stdout
+
+
+def test_sigkill_leaves_a_readable_bag_up_to_the_last_split(sim, ros_node, wait_for, tmp_path):
+    bag = tmp_path / 'killed'
+    child = sim('--mode', 'fast', '--record', bag)
+    publisher(ros_node, wait_for, 'joint_torque', 'shoulder').publish(Float64(data=0.5))
+
+    def splits():
+        try:
+            info = yaml.safe_load((bag / 'metadata.yaml').read_text())
+        except FileNotFoundError:
+            return 0
+        return len(info['rosbag2_bagfile_information']['relative_file_paths'])
+
+    assert wait_for(lambda: splits() >= 3, timeout=20.0)
+    os.kill(child.pid, signal.SIGKILL)
+    child.communicate()
+    recorded = bag_messages(bag)
+    stamps = [stamp_ns(m) for m in recorded['/joint_states']]
+    assert len(stamps) > 100 and stamps == [k * 10_000_000 for k in range(len(stamps))]
+    replayed = cli('replay', bag)
+    assert replayed.returncode == 0, replayed.stdout + replayed.stderr
+
+
+@pytest.fixture(scope='module')
+def sample_bag():
+    """The torque step response (``make bags``): a torque command, then the response."""
+    return REPO / 'bags' / 'torque_step'
+
+
+def test_sample_bags_are_there_and_small():
+    assert [p.name for p in SAMPLE_BAGS] == ['demo_pd', 'torque_step']
+    for bag in SAMPLE_BAGS:
+        assert sum(f.stat().st_size for f in bag.iterdir()) < 300_000
+
+
+@pytest.mark.parametrize('bag', SAMPLE_BAGS, ids=lambda p: p.name)
+def test_sample_bags_replay_exactly(bag):
+    replayed = cli('replay', bag)
+    assert replayed.returncode == 0, replayed.stdout + replayed.stderr
+    assert 'largest difference 0.000e+00' in replayed.stdout
+
+
+def test_what_if_with_another_dt_reports_a_divergence(sample_bag, tmp_path):
+    scene = yaml.safe_load(bag_messages(sample_bag)['/affine_joint_sim/scene'][0].data)
+    scene['dt'] = scene['dt'] / 2
+    other = tmp_path / 'half_dt.yaml'
+    other.write_text(yaml.safe_dump(scene))
+    replayed = cli('replay', sample_bag, '--scene', other, '--out', tmp_path / 'out')
+    assert replayed.returncode == 1, replayed.stdout + replayed.stderr
+    worst = float(replayed.stdout.split('largest difference ')[1].split(':')[0])
+    assert 1e-4 < worst < 10.0
+    # The re-simulated run is a bag of its own that replays exactly.
+    again = cli('replay', tmp_path / 'out')
+    assert again.returncode == 0, again.stdout + again.stderr
+
+
+def _copy_without_scene(source, target):
+    """Rewrite a bag without its ~/scene topic (a bag from another recorder)."""
+    topics = load_topics()
+    with Reader(source) as reader:
+        kept = [c for c in reader.connections if not c.topic.endswith('/scene')]
+        recorder = BagRecorder(target, 'mcap', [
+            BagTopic(c.topic, c.msgtype, topics['joint_commands'].qos) for c in kept])
+        for connection, t_ns, raw in reader.messages(connections=kept):
+            recorder.write(connection.topic, t_ns, bytes(raw))
+    recorder.close()
+
+
+def test_a_bag_without_a_scene_needs_one_given(sample_bag, tmp_path):
+    bare = tmp_path / 'bare'
+    _copy_without_scene(sample_bag, bare)
+    refused = cli('replay', bare)
+    assert refused.returncode == 2 and 'holds no scene' in refused.stderr
+    assert '--scene' in refused.stderr and 'Traceback' not in refused.stderr
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(bag_messages(sample_bag)['/affine_joint_sim/scene'][0].data)
+    assert cli('replay', bare, '--scene', scene).returncode == 0
+
+
+def _truncated(bag, tmp_path):
+    damaged = tmp_path / 'truncated'
+    damaged.mkdir()
+    for f in bag.iterdir():
+        data = f.read_bytes()
+        (damaged / f.name).write_bytes(data if f.name == 'metadata.yaml' else data[:len(data) // 2])
+    return damaged
+
+
+def _corrupt(bag, tmp_path):
+    damaged = tmp_path / 'corrupt'
+    damaged.mkdir()
+    for f in bag.iterdir():
+        data = f.read_bytes()
+        (damaged / f.name).write_bytes(data if f.name == 'metadata.yaml' else
+                                       data[:64] + bytes(len(data) - 64))
+    return damaged
+
+
+@pytest.mark.parametrize('make', [_truncated, _corrupt,
+                                  lambda bag, tmp: tmp,                     # a plain directory
+                                  lambda bag, tmp: REPO / 'README.md',      # a plain file
+                                  lambda bag, tmp: tmp / 'missing'],
+                         ids=['truncated', 'corrupt', 'directory', 'file', 'missing'])
+def test_damaged_or_foreign_paths_give_a_clear_error(sample_bag, tmp_path, make):
+    path = make(sample_bag, tmp_path)
+    replayed = cli('replay', path)
+    assert replayed.returncode == 2, replayed.stdout + replayed.stderr
+    assert replayed.stderr.startswith('affine-joint-sim replay: error: ')
+    assert 'Traceback' not in replayed.stderr
+
+
+def test_publish_drives_a_running_node(sample_bag, sim, ros_node, wait_for):
+    commands = [m for topic, msgs in bag_messages(sample_bag).items()
+                if topic.endswith('/external_torque') for m in msgs]
+    assert commands, 'the sample bag should hold torque commands'
+    sim('--mode', 'realtime')
+    states = Inbox(ros_node, 'joint_states')
+    played = cli('replay', sample_bag, '--publish', '--rate', 10)
+    assert played.returncode == 0, played.stdout + played.stderr
+    assert wait_for(lambda: states.last is not None and
+                    states.last.effort[0] == commands[-1].data)
