@@ -7,6 +7,7 @@ import math
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 from rosgraph_msgs.msg import Clock
@@ -15,6 +16,8 @@ from std_msgs.msg import Bool, Float64
 from std_srvs.srv import SetBool, Trigger
 
 from helpers.ros_client import DT_NS, Inbox, call, node_services, publisher, stamp_ns
+
+REPO = Path(__file__).resolve().parent.parent
 
 
 def test_topics_services_and_types(sim, ros_node, wait_for):
@@ -192,3 +195,23 @@ def test_bad_scene_file_names_the_key_path(tmp_path):
                            str(scene)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     assert 'bodies[0].mass' in done.stderr and 'Traceback' not in done.stderr
+
+
+def test_params_file_is_read_and_flags_beat_it(tmp_path):
+    params = tmp_path / 'params.yaml'
+    params.write_text((REPO / 'msg_configs' / 'node_params.yaml').read_text()
+                      .replace('mode: realtime', 'mode: fast')
+                      .replace('duration: 0.0', 'duration: 0.25')
+                      .replace('scene: pendulum', 'scene: double_pendulum'))
+    from_file = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run',
+                                '--ros-args', '--params-file', str(params)],
+                               capture_output=True, text=True, timeout=60)
+    assert from_file.returncode == 0, from_file.stderr
+    assert '25 steps, 0.250 s simulated' in from_file.stdout and '(fast)' in from_file.stdout
+    assert 'elbow' in from_file.stdout
+    flagged = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run',
+                              '--duration', '0.05', '--scene', 'pendulum',
+                              '--ros-args', '--params-file', str(params)],
+                             capture_output=True, text=True, timeout=60)
+    assert flagged.returncode == 0, flagged.stderr
+    assert '5 steps, 0.050 s simulated' in flagged.stdout and 'elbow' not in flagged.stdout
