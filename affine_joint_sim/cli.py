@@ -2,7 +2,8 @@
 
 Subcommands: ``run`` (the node), ``torque`` / ``enable`` / ``echo`` (talk to a running node
 without the ``ros2`` CLI), ``controller`` (the demo PD controller), ``demo`` (``make run``),
-``replay`` (bags) and ``bench``. ROS arguments go last, after ``--ros-args`` (e.g. ``--params-file``, remappings).
+``replay`` (bags) and ``bench``. ROS arguments go last, after ``--ros-args`` (e.g.
+``--params-file``, remappings).
 Modules behind a subcommand are imported only when it runs, so ``--help`` is quick.
 """
 

@@ -10,7 +10,6 @@ import time
 from pathlib import Path
 
 import pytest
-from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64
 from std_srvs.srv import SetBool, Trigger
@@ -118,7 +117,8 @@ def test_pause_step_reset_and_clock(sim, ros_node, wait_for):
     clock = Inbox(ros_node, 'clock')
     publisher(ros_node, wait_for, 'joint_torque', 'shoulder').publish(Float64(data=1.0))
     assert wait_for(lambda: states.last is not None and states.last.effort[0] == 1.0)
-    result = call(ros_node, wait_for, SetBool, '/affine_joint_sim/pause', SetBool.Request(data=True))
+    pause = '/affine_joint_sim/pause'
+    result = call(ros_node, wait_for, SetBool, pause, SetBool.Request(data=True))
     assert result.success, result.message
     step = call(ros_node, wait_for, Trigger, '/affine_joint_sim/step', Trigger.Request())
     assert step.success, step.message
@@ -126,7 +126,8 @@ def test_pause_step_reset_and_clock(sim, ros_node, wait_for):
     # Fast mode may have left a backlog: wait until the stepped state is the newest.
     assert wait_for(lambda: stamp_ns(states.last) == before)
     for k in range(1, 4):
-        assert call(ros_node, wait_for, Trigger, '/affine_joint_sim/step', Trigger.Request()).success
+        assert call(ros_node, wait_for, Trigger, '/affine_joint_sim/step',
+                    Trigger.Request()).success
         assert wait_for(lambda: stamp_ns(states.last) == before + k * DT_NS)
         assert wait_for(lambda: (clock.last.clock.sec * 10**9 + clock.last.clock.nanosec) ==
                         before + k * DT_NS)
@@ -134,7 +135,7 @@ def test_pause_step_reset_and_clock(sim, ros_node, wait_for):
     assert reset.success, reset.message
     assert wait_for(lambda: stamp_ns(states.last) == 0)
     assert states.last.position[0] == 0.0 and states.last.effort[0] == 0.0
-    resume = call(ros_node, wait_for, SetBool, '/affine_joint_sim/pause', SetBool.Request(data=False))
+    resume = call(ros_node, wait_for, SetBool, pause, SetBool.Request(data=False))
     assert resume.success
     assert wait_for(lambda: stamp_ns(states.last) > 10 * DT_NS)
     refused = call(ros_node, wait_for, Trigger, '/affine_joint_sim/step', Trigger.Request())
