@@ -63,7 +63,8 @@ class Shape(_Strict):
 
 
 class Orientation(_Strict):
-    """Initial orientation, world frame: ``rpy`` [rad] (fixed-axis x-y-z, REP 103) or ``quat_xyzw``."""
+    """Initial orientation, world frame: ``rpy`` [rad] (fixed-axis x-y-z, REP 103) or
+    ``quat_xyzw``."""
 
     rpy: Vec3 | None = None
     quat_xyzw: tuple[float, float, float, float] | None = None

@@ -73,7 +73,8 @@ def test_invalid_scenes_name_file_key_path_and_valid_values(edit, path, hint):
 
 
 def test_closed_loop_is_rejected_with_its_joints():
-    text = BASE + '''  - {name: back, parent: link, child: base, x0: [0, 0, -1], x1: [0.1, 0, -1]}\n'''
+    text = BASE + ('  - {name: back, parent: link, child: base, x0: [0, 0, -1], '
+                   'x1: [0.1, 0, -1]}\n')
     message = error_of(text)
     assert 'joints[1]' in message and 'closed loop (hinge, back)' in message
 

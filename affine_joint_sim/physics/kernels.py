@@ -3,7 +3,9 @@
 One thread per environment runs the whole step of physics_spec (preface and §3): prediction
 with gravity and the explicit joint torques, the Newton loop (gradient, PSD-projected Hessian,
 block-tree Cholesky solve, convergence test, backtracking line search), then velocities and
-joint angles. No host sync happens inside a step (design.md §8).
+joint angles. A step whose state is non-finite, or in which a joint turns more than 0.9π (its
+multi-turn angle would alias), is rejected: that environment keeps its start-of-step state and
+flags the step in its statistics. No host sync happens inside a step (design.md §8).
 
 The kernels are built per scalar type (float64 or float32) by ``step_kernels``; every array of
 state, control and scratch has a leading environment axis.
@@ -21,7 +23,8 @@ from affine_joint_sim.physics.model import BDF2, CONTINUOUS, LEVER_ARM
 __all__ = ['step_kernels', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES']
 
 STAT_INT_NAMES = ('newton_iterations', 'line_search_halvings', 'converged',
-                  'line_search_failures', 'angle_aliased', 'torque_dropped')
+                  'line_search_failures', 'angle_aliased', 'torque_dropped', 'non_finite',
+                  'step_rejected')
 STAT_FLOAT_NAMES = ('residual', 'joint_gap')
 
 _BUILT = {}
@@ -41,8 +44,15 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
     mat12 = wp.types.matrix(shape=(12, 12), dtype=scalar)
     zero, half, one, two = scalar(0.0), scalar(0.5), scalar(1.0), scalar(2.0)
     four = scalar(4.0)
-    two_pi = scalar(2.0 * math.pi)
+    # Constants are computed here, in Python: a quotient written inside a kernel is evaluated in
+    # float32 even when cast to float64 (Warp 1.19), which made BDF2's 4/3 − 1/3 = 1 + 3e-8.
+    pi, two_pi = scalar(math.pi), scalar(2.0 * math.pi)
+    alias_limit = scalar(0.9 * math.pi)   # |Δθ| per step [rad] beyond which angles alias
     inv_sqrt2 = scalar(1.0 / math.sqrt(2.0))
+    # BDF2 (physics_spec §3.7): q̃ = 4/3 q_n − 1/3 q_{n−1} + 2dt/9 (4 v_n − v_{n−1}) + 4/9 dt² a,
+    # kinetic term scaled by 9/4
+    bdf2_q_n, bdf2_q_prev, bdf2_v = scalar(4.0 / 3.0), scalar(1.0 / 3.0), scalar(2.0 / 9.0)
+    bdf2_kinetic, bdf2_force = scalar(9.0 / 4.0), scalar(4.0 / 9.0)
 
     @wp.struct
     class Model:
@@ -463,11 +473,37 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
     def wrap_angle(x: scalar):
         """x wrapped once into (−π, π]."""
         out = x
-        if out > scalar(math.pi):
+        if out > pi:
             out -= two_pi
-        elif out <= -scalar(math.pi):
+        elif out <= -pi:
             out += two_pi
         return out
+
+    @wp.func
+    def angle_step(model: Model, state: State, env: int, k: int):
+        """Δθ of joint k from the last accepted angle to θ(q), taken in (−π, π] [rad]."""
+        delta = joint_angle_raw(model, state.q, env, k) - state.joint_angle_continuous[env, k]
+        return delta - two_pi * wp.round(delta / two_pi)
+
+    @wp.func
+    def commit_step(model: Model, state: State, scratch: Scratch, env: int):
+        """Accept the step: velocities (held in scratch.rhs) and history (§3.6, §3.7), angles."""
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            state.q_prev[env, b] = scratch.q_n[env, b]
+            state.v_prev[env, b] = state.v[env, b]
+            state.v[env, b] = scratch.rhs[env, b]
+        if model.integrator == BDF2:
+            state.history_ready[env] = 1
+        for k in range(model.joint_parent.shape[0]):
+            previous = state.joint_angle_continuous[env, k]
+            delta = angle_step(model, state, env, k)
+            state.joint_angle_continuous[env, k] = previous + delta
+            state.joint_velocity[env, k] = delta / model.dt
+            if model.joint_angle_mode[k] == CONTINUOUS:
+                state.joint_angle[env, k] = previous + delta
+            else:
+                state.joint_angle[env, k] = wrap_angle(joint_angle_raw(model, state.q, env, k))
 
     # ---- the step ---------------------------------------------------------------------------
 
@@ -483,8 +519,8 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
         kinetic_scale = one
         force_scale = dt2
         if bdf2 != 0:
-            kinetic_scale = scalar(9.0 / 4.0)
-            force_scale = scalar(4.0 / 9.0) * dt2
+            kinetic_scale = bdf2_kinetic
+            force_scale = bdf2_force * dt2
         gravity = vec12()
         if model.has_gravity != 0:
             gravity = translation_part(model.gravity)
@@ -495,10 +531,10 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
             qn = state.q[env, b]
             scratch.q_n[env, b] = qn
             if bdf2 != 0:
-                scratch.q_tilde[env, b] = (scalar(4.0 / 3.0) * qn
-                                           - scalar(1.0 / 3.0) * state.q_prev[env, b]
-                                           + scalar(2.0 / 9.0) * dt * (four * state.v[env, b]
-                                                                       - state.v_prev[env, b])
+                scratch.q_tilde[env, b] = (bdf2_q_n * qn
+                                           - bdf2_q_prev * state.q_prev[env, b]
+                                           + bdf2_v * dt * (four * state.v[env, b]
+                                                            - state.v_prev[env, b])
                                            + force_scale * gravity)
             else:
                 scratch.q_tilde[env, b] = qn + dt * state.v[env, b] + force_scale * gravity
@@ -549,35 +585,36 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
                 failures += 1
             energy = trial
 
-        # velocities and history (§3.6, §3.7)
+        # accept the step unless its state is non-finite or a joint turned so far that its
+        # angle would alias; a rejected step keeps the start-of-step state (the last good one)
+        finite = int(1)
         for k in range(n_free):
             b = model.elim_order[k]
             qn = scratch.q_n[env, b]
             v_new = (state.q[env, b] - qn) / dt
             if bdf2 != 0:
-                v_new = (scalar(3.0) * state.q[env, b] - four * qn + state.q_prev[env, b]) / (two * dt)
-            state.q_prev[env, b] = qn
-            state.v_prev[env, b] = state.v[env, b]
-            state.v[env, b] = v_new
-        if model.integrator == BDF2:
-            state.history_ready[env] = 1
-
-        # joint angles (preface §6) and the largest joint gap
+                v_new = (scalar(3.0) * state.q[env, b] - four * qn
+                         + state.q_prev[env, b]) / (two * dt)
+            scratch.rhs[env, b] = v_new
+            if not (wp.isfinite(state.q[env, b]) and wp.isfinite(v_new)):
+                finite = 0
         aliased = int(0)
+        for k in range(model.joint_parent.shape[0]):
+            if wp.abs(angle_step(model, state, env, k)) > alias_limit:
+                aliased = 1
+        if finite == 0:
+            converged = 0
+        rejected = int(0)
+        if finite == 0 or aliased != 0:
+            rejected = 1
+            for k in range(n_free):
+                b = model.elim_order[k]
+                state.q[env, b] = scratch.q_n[env, b]
+        else:
+            commit_step(model, state, scratch, env)
+
         gap = zero
         for k in range(model.joint_parent.shape[0]):
-            previous = state.joint_angle_continuous[env, k]
-            raw = joint_angle_raw(model, state.q, env, k)
-            delta = raw - previous
-            delta = delta - two_pi * wp.round(delta / two_pi)
-            if wp.abs(delta) > scalar(0.9 * math.pi):
-                aliased = 1
-            state.joint_angle_continuous[env, k] = previous + delta
-            state.joint_velocity[env, k] = delta / dt
-            if model.joint_angle_mode[k] == CONTINUOUS:
-                state.joint_angle[env, k] = previous + delta
-            else:
-                state.joint_angle[env, k] = wrap_angle(raw)
             d0, d1 = joint_gaps(model, state.q, env, k)
             gap = wp.max(gap, wp.max(wp.length(d0), wp.length(d1)))
 
@@ -587,6 +624,8 @@ def _build(scalar):  # noqa: C901 - one closure so that every function shares th
         state.stats_int[env, 3] = failures
         state.stats_int[env, 4] = aliased
         state.stats_int[env, 5] = dropped
+        state.stats_int[env, 6] = 1 - finite
+        state.stats_int[env, 7] = rejected
         state.stats_float[env, 0] = residual
         state.stats_float[env, 1] = gap
 

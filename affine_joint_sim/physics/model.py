@@ -161,7 +161,8 @@ def build_model(scene) -> HostModel:
         ('inertia', free), ('orthogonality', free), ('gravity', free and gravity.any()),
         ('joints', bool(has_free.any()))) if on]
     return HostModel(
-        dt=scene.dt, gravity=gravity, integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,
+        dt=scene.dt, gravity=gravity,
+        integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,
         newton_tol=scene.solver.newton_tol, newton_max_iter=scene.solver.newton_max_iter,
         line_search=scene.solver.line_search, precision=scene.solver.precision,
         body_fixed=fixed, body_mass=mass,
@@ -211,7 +212,8 @@ def _elimination(scene, fixed, parent, child, stiffness, anchors):
                 queue.append(other)
                 elim_parent[other] = body
                 u0, u1, w0, w1 = anchors[k]
-                h_pc = -stiffness[k] * (jacobian(u0).T @ jacobian(w0) + jacobian(u1).T @ jacobian(w1))
+                h_pc = -stiffness[k] * (jacobian(u0).T @ jacobian(w0) +
+                                        jacobian(u1).T @ jacobian(w1))
                 elim_offdiag[other] = h_pc.T if other == child[k] else h_pc
         order += queue
     return np.array(order[::-1], dtype=np.int32), elim_parent, elim_offdiag
