@@ -37,6 +37,7 @@ setup(
     extras_require={
         'test': ['pytest'],
         'bench': ['matplotlib'],    # plots of `make bench`
+        'compare': ['mujoco'],      # MuJoCo as a reference in `make bench` (optional)
     },
     entry_points={
         'console_scripts': ['affine-joint-sim = affine_joint_sim.cli:main'],

@@ -2,9 +2,10 @@
 
 Wall-clock figures belong here, never in tests. Each section is a module of this package with
 ``add_parser(subparsers)`` (its own ``bench <section>`` subcommand, setting
-``bench_func(args, devices) -> int``) and
-``run_default(results: Path, devices: list[str]) -> None`` (what ``bench`` with no section runs).
-Section modules import Warp only inside functions, so ``--help`` stays fast.
+``bench_func(args, devices) -> int``; see ``section.add_section``), and
+``run(results: Path, devices: list[str], settings)`` with its full settings ``FULL``, which
+``bench`` with no section runs. Section modules import Warp only inside functions, so
+``--help`` stays fast.
 """
 
 import argparse
@@ -13,7 +14,7 @@ from pathlib import Path
 
 __all__ = ['SECTIONS', 'add_arguments', 'main']
 
-SECTIONS = ('perf',)
+SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop')
 
 
 def _section(name: str):
@@ -45,6 +46,7 @@ def main(args) -> int:
         return args.bench_func(args, devices)
     args.results.mkdir(parents=True, exist_ok=True)
     for name in SECTIONS:
-        _section(name).run_default(args.results, devices)
+        section = _section(name)
+        section.run(args.results, devices, section.FULL)
     print(f'bench results in {args.results.resolve()}')
     return 0

@@ -1,0 +1,150 @@
+"""The node over DDS: joint_states rate in ``fast`` mode, command-to-state latency in ``lockstep``.
+
+The node runs in a child process (``affine-joint-sim run``); this process subscribes (and, for
+lockstep, answers every state with a ``joint_commands`` message, as a controller would).
+Discovery stays on loopback.
+"""
+
+import os
+import random
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+from affine_joint_sim.bench.report import Column, markdown_table, publish
+from affine_joint_sim.bench.section import add_section
+from affine_joint_sim.resources import config_dir
+
+__all__ = ['add_parser', 'run']
+
+
+class Settings(NamedTuple):
+    fast_seconds: float         # wall seconds of each fast-mode run (about)
+    lockstep_steps: int         # lockstep round trips measured
+
+
+FULL = Settings(fast_seconds=3.0, lockstep_steps=2000)
+QUICK = Settings(fast_seconds=1.0, lockstep_steps=300)
+SCENES = ('pendulum', 'arm')
+
+
+def _ros_environment():
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
+    os.environ.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE',
+                          str(config_dir() / 'fastdds_fast_discovery.xml'))
+
+
+def _node(*flags) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'run', *flags],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+
+
+def _client():
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    from affine_joint_sim.ros.topics import load_topics
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node('bench_ros_loop', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    return node, executor, load_topics()
+
+
+def _spin_until(executor, predicate, timeout):
+    deadline = time.monotonic() + timeout
+    while not predicate() and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+    return predicate()
+
+
+def fast_rate(scene: str, settings: Settings) -> dict:
+    """Steps/s the node publishes in fast mode, and how many one rclpy subscriber takes."""
+    node, executor, topics = _client()
+    received = []
+    states = topics['joint_states']
+    node.create_subscription(states.msg_class, states.name(),
+                             lambda m: received.append(time.monotonic()), states.qos)
+    # Long enough in sim time for ~fast_seconds of wall time at the measured rates.
+    sim_seconds = {'pendulum': 100.0, 'arm': 50.0}.get(scene, 50.0) * settings.fast_seconds
+    child = _node('--scene', scene, '--mode', 'fast', '--duration', str(sim_seconds))
+    try:
+        _spin_until(executor, lambda: child.poll() is not None, 600.0)
+        _spin_until(executor, lambda: False, 0.3)       # the tail still in flight
+        summary = child.communicate()[0]
+    finally:
+        node.destroy_node()
+        node.context.try_shutdown()
+    published = float(summary.split(' steps/s')[0].rsplit(' ', 1)[1])
+    span = received[-1] - received[0] if len(received) > 1 else float('nan')
+    return {'scene': scene, 'published_per_s': published,
+            'received_per_s': (len(received) - 1) / span, 'received': len(received)}
+
+
+def lockstep_latency(scene: str, settings: Settings) -> dict:
+    """Round trip in lockstep: command published → next joint_states received [ms]."""
+    node, executor, topics = _client()
+    commands, states = topics['joint_commands'], topics['joint_states']
+    publisher = node.create_publisher(commands.msg_class, commands.name(), commands.qos)
+    child = _node('--scene', scene, '--mode', 'lockstep')
+    sent, latencies, answered = [None], [], []
+
+    def answer(msg):
+        now = time.monotonic()
+        answered.append(now)
+        if sent[0] is not None:
+            latencies.append(now - sent[0])
+        if len(latencies) < settings.lockstep_steps:
+            sent[0] = time.monotonic()
+            publisher.publish(commands.msg_class(name=list(msg.name),
+                                                 effort=[0.0] * len(msg.name)))
+
+    node.create_subscription(states.msg_class, states.name(), answer, states.qos)
+    try:
+        _spin_until(executor, lambda: len(latencies) >= settings.lockstep_steps, 120.0)
+    finally:
+        child.terminate()
+        child.communicate()
+        node.destroy_node()
+        node.context.try_shutdown()
+    ms = sorted(x * 1e3 for x in latencies)
+    return {'scene': scene, 'round_trips': len(ms), 'median_ms': statistics.median(ms),
+            'p90_ms': ms[int(0.9 * len(ms))], 'p99_ms': ms[int(0.99 * len(ms))],
+            'loop_steps_per_s': (len(answered) - 1) / (answered[-1] - answered[0])}
+
+
+FAST_COLUMNS = [Column('scene', 'scene'),
+                Column('published_per_s', 'joint_states published/s (node)', '{:.0f}'),
+                Column('received_per_s', 'received/s (one rclpy subscriber)', '{:.0f}')]
+LOCKSTEP_COLUMNS = [Column('scene', 'scene'), Column('round_trips', 'round trips'),
+                    Column('median_ms', 'median [ms]', '{:.2f}'),
+                    Column('p90_ms', 'p90 [ms]', '{:.2f}'), Column('p99_ms', 'p99 [ms]', '{:.2f}'),
+                    Column('loop_steps_per_s', 'closed-loop steps/s', '{:.0f}')]
+
+
+def run(results: Path, devices: list[str], settings: Settings) -> None:
+    """Measure both on the CPU node (the DDS side does not depend on the Warp device)."""
+    _ros_environment()
+    fast = [fast_rate(scene, settings) for scene in SCENES]
+    lockstep = [lockstep_latency(scene, settings) for scene in SCENES]
+    publish(results, 'ros_fast', '### joint_states rate, fast mode (CPU, dt 0.01 s)\n\n' +
+            markdown_table(fast, FAST_COLUMNS) + '\n', fast)
+    publish(results, 'ros_lockstep', '### lockstep: joint_commands published → next '
+            'joint_states received\n\n' + markdown_table(lockstep, LOCKSTEP_COLUMNS) + '\n',
+            lockstep)
+
+
+
+def add_parser(sections) -> None:
+    add_section(sections, 'ros', run, FULL, QUICK,
+                help='node over DDS: fast-mode joint_states rate, lockstep latency',
+                description='Run the node in a child process and measure the joint_states '
+                            'rate in fast mode and the command-to-state round trip in lockstep.',
+                quick_help=f'{QUICK.fast_seconds:g} s fast runs, {QUICK.lockstep_steps} '
+                           'round trips')
