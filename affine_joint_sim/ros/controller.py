@@ -9,6 +9,7 @@ closed loop is deterministic. Being PD (no gravity model, no integral term), it 
 import numpy as np
 import rclpy
 from rclpy.executors import ExternalShutdownException
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
 from affine_joint_sim.ros.topics import load_topics
@@ -84,6 +85,9 @@ def main(targets: dict[str, float], kp: float, kd: float, effort_limit: float = 
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except _rclpy.RCLError:         # a publish that raced with SIGINT/SIGTERM
+        if rclpy.ok():
+            raise
     finally:
         print(node.report(), flush=True)
         node.destroy_node()

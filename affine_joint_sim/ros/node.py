@@ -20,6 +20,7 @@ import rclpy
 import yaml
 from rclpy.duration import Duration
 from rclpy.exceptions import InvalidParameterTypeException
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.executors import (ExternalShutdownException, ShutdownException,
                              SingleThreadedExecutor)
 from rclpy.node import Node
@@ -407,15 +408,19 @@ class SimNode(Node):
                         continue
                     self.step()
                 self._check_rate()
+        except _rclpy.RCLError:
+            # SIGINT/SIGTERM can invalidate the context in the middle of a publish
+            if self.context.ok():
+                raise
         finally:
             with self._wake:
                 self._serve_requests(stopping=True)
             executor.shutdown(timeout_sec=1.0)
             spinner.join(timeout=1.0)
+        if not self.context.ok():        # a shutdown explains any error it raced with
+            raise ExternalShutdownException()
         if failure:
             raise failure[0]
-        if not self.context.ok():
-            raise ExternalShutdownException()
         # A run that ends by itself delivers its last state before the node goes.
         self.state_pub.wait_for_all_acked(Duration(seconds=1.0))
 
