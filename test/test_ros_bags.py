@@ -193,3 +193,20 @@ def test_publish_drives_a_running_node(sample_bag, sim, ros_node, wait_for):
     assert played.returncode == 0, played.stdout + played.stderr
     assert wait_for(lambda: states.last is not None and
                     states.last.effort[0] == commands[-1].data)
+
+
+def test_sigterm_ends_the_run_cleanly_and_finalises_the_bag(sim, ros_node, wait_for, tmp_path):
+    bag = tmp_path / 'terminated'
+    child = sim('--mode', 'realtime', '--real-time-factor', '4', '--record', bag)
+    states = Inbox(ros_node, 'joint_states')
+    assert wait_for(lambda: len(states.messages) > 5)
+    child.send_signal(signal.SIGTERM)
+    output = child.stop()
+    assert child.returncode == 0 and 'Traceback' not in output, output
+    assert f'bag: {bag}' in output
+    metadata = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    recorded = bag_messages(bag)
+    assert metadata['message_count'] == sum(len(v) for v in recorded.values())
+    steps = int(output.split(' steps,')[0].split()[-1])
+    assert len(recorded['/joint_states']) == steps + 1      # the initial state and every step
+    assert not list(bag.glob('.split_*'))                     # no scratch left behind

@@ -86,10 +86,14 @@ class SimNode(Node):
         self.recorder = None
         self._make_interfaces()
         self.recorder = self._open_bag()
-        scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
-        self._publish_and_record(self.scene_pub, scene_msg, 0)
-        self._event({'event': 'start', **{k: self.config[k] for k in
-                                          ('mode', 'device', 'command_timeout')}})
+        try:
+            scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
+            self._publish_and_record(self.scene_pub, scene_msg, 0)
+            self._event({'event': 'start', **{k: self.config[k] for k in
+                                              ('mode', 'device', 'command_timeout')}})
+        except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
+            self.close_bag()
+            raise
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._started = (time.monotonic(), 0)
         self.get_logger().info(
@@ -162,9 +166,10 @@ class SimNode(Node):
             raise ConfigError(f"parameter 'record': {exc}") from None
 
     def _publish_and_record(self, publisher, msg, t_ns):
-        publisher.publish(msg)
+        """Record first: the bag keeps every computed step even if a shutdown stops the publish."""
         if self.recorder is not None:
             self.recorder.write(publisher.topic_name, t_ns, serialize_message(msg))
+        publisher.publish(msg)
 
     def _event(self, event: dict):
         """Publish (and record) an event of the run, e.g. a reset, at the current bag time."""
@@ -460,6 +465,9 @@ def main(args=None, parameter_overrides=None) -> int:
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except _rclpy.RCLError:
+        if rclpy.ok():
+            raise               # else SIGINT/SIGTERM came while the node was being built
     finally:
         if node is not None:
             node.close_bag()
