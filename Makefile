@@ -28,7 +28,7 @@ define install_project
 	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test,bench]'
 endef
 
-.PHONY: venv run test bench bags lock clean
+.PHONY: venv run test bench bags replay lock clean
 
 venv: $(STAMP)
 
@@ -50,6 +50,11 @@ bags: venv
 	$(VENV)/bin/affine-joint-sim demo --duration 3 --record bags/demo_pd
 	$(VENV)/bin/affine-joint-sim run --mode realtime --duration 2 --record bags/torque_step & \
 	  sleep 1 && $(VENV)/bin/affine-joint-sim torque shoulder 2.0; wait
+
+# Re-simulates a bag and compares it with its recorded joint states: make replay BAG=DIR
+# (default: the demo sample bag).
+replay: venv
+	$(VENV)/bin/affine-joint-sim replay $(or $(BAG),bags/demo_pd)
 
 test: venv
 	$(PY) -m pytest -q test
