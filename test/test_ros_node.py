@@ -216,3 +216,17 @@ def test_params_file_is_read_and_flags_beat_it(tmp_path):
                              capture_output=True, text=True, timeout=60)
     assert flagged.returncode == 0, flagged.stderr
     assert '5 steps, 0.050 s simulated' in flagged.stdout and 'elbow' not in flagged.stdout
+
+
+def test_realtime_warns_when_it_cannot_keep_up_and_reports_the_factor():
+    # 1000x real time at dt 0.01 s needs 100,000 arm steps/s: far beyond any CPU here; the
+    # run lasts several 2 s checking windows.
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--scene',
+                           'arm', '--mode', 'realtime', '--real-time-factor', '1000',
+                           '--duration', '600'],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    warning = done.stderr.split('cannot keep up with real_time_factor 1000: achieved ')[1]
+    assert float(warning.split()[0]) < 500
+    factor = float(done.stdout.split('real-time factor ')[1].split()[0])
+    assert 1 < factor < 500

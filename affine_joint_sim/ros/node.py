@@ -41,7 +41,7 @@ __all__ = ['SimNode', 'main']
 
 NODE_NAME = 'affine_joint_sim'
 _WARN_EVERY = 2.0       # wall seconds between two warnings about the same topic
-_RATE_WINDOW = 5.0      # wall seconds over which the realtime factor is checked
+_RATE_WINDOW = 2.0      # wall seconds over which the realtime factor is checked
 
 
 class SimNode(Node):
