@@ -30,6 +30,16 @@ def _assignment(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(f'expected JOINT=NUMBER, got {text!r}') from None
 
 
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+        if not value > 0.0 or value == float('inf'):
+            raise ValueError
+        return value
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected a finite number > 0, got {text!r}') from None
+
+
 def _on_off(text: str) -> bool:
     words = {'on': True, 'true': True, '1': True, 'off': False, 'false': False, '0': False}
     try:
@@ -142,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     echo = commands.add_parser('echo', help='print joint_states as a live table',
                                description='Print joint_states as a table until Ctrl-C.')
     _add_namespace(echo)
-    echo.add_argument('--rate', type=float, default=10.0, help='refreshes per second')
+    echo.add_argument('--rate', type=_positive, default=10.0, help='refreshes per second')
     echo.add_argument('--once', action='store_true', help='print one message and exit')
     echo.add_argument('--timeout', type=float, default=0.0,
                       help='exit 1 if no message within this many seconds (0: wait forever)')
@@ -190,7 +200,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help='storage of --out (default: mcap)')
     replay.add_argument('--publish', action='store_true',
                         help='publish the recorded commands on ROS at recorded timing instead')
-    replay.add_argument('--rate', type=float, default=1.0,
+    replay.add_argument('--rate', type=_positive, default=1.0,
                         help='--publish speed factor (default: 1 = recorded timing)')
     _add_namespace(replay)
     replay.set_defaults(func=_replay)

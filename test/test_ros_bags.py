@@ -128,11 +128,11 @@ def test_what_if_with_another_dt_reports_a_divergence(sample_bag, tmp_path):
     assert again.returncode == 0, again.stdout + again.stderr
 
 
-def _copy_without_scene(source, target):
-    """Rewrite a bag without its ~/scene topic (a bag from another recorder)."""
+def _copy(source, target, drop):
+    """Rewrite a bag without the topic ending in ``drop`` (as another recorder might)."""
     topics = load_topics()
     with Reader(source) as reader:
-        kept = [c for c in reader.connections if not c.topic.endswith('/scene')]
+        kept = [c for c in reader.connections if not c.topic.endswith(drop)]
         recorder = BagRecorder(target, 'mcap', [
             BagTopic(c.topic, c.msgtype, topics['joint_commands'].qos) for c in kept])
         for connection, t_ns, raw in reader.messages(connections=kept):
@@ -142,7 +142,7 @@ def _copy_without_scene(source, target):
 
 def test_a_bag_without_a_scene_needs_one_given(sample_bag, tmp_path):
     bare = tmp_path / 'bare'
-    _copy_without_scene(sample_bag, bare)
+    _copy(sample_bag, bare, drop='/scene')
     refused = cli('replay', bare)
     assert refused.returncode == 2 and 'holds no scene' in refused.stderr
     assert '--scene' in refused.stderr and 'Traceback' not in refused.stderr
@@ -183,16 +183,28 @@ def test_damaged_or_foreign_paths_give_a_clear_error(sample_bag, tmp_path, make)
     assert 'Traceback' not in replayed.stderr
 
 
-def test_publish_drives_a_running_node(sample_bag, sim, ros_node, wait_for):
+def test_publish_drives_a_running_node_in_another_namespace(sample_bag, spawn, ros_node,
+                                                             wait_for):
     commands = [m for topic, msgs in bag_messages(sample_bag).items()
                 if topic.endswith('/external_torque') for m in msgs]
     assert commands, 'the sample bag should hold torque commands'
-    sim('--mode', 'realtime')
-    states = Inbox(ros_node, 'joint_states')
-    played = cli('replay', sample_bag, '--publish', '--rate', 10)
+    spawn('-m', 'affine_joint_sim.cli', 'run', '--ros-args', '-r', '__ns:=/r1')
+    states = Inbox(ros_node, 'joint_states', name='/r1/joint_states')
+    assert wait_for(lambda: states.last is not None, timeout=30.0)
+    played = cli('replay', sample_bag, '--publish', '--rate', 10, '--namespace', '/r1')
     assert played.returncode == 0, played.stdout + played.stderr
-    assert wait_for(lambda: states.last is not None and
-                    states.last.effort[0] == commands[-1].data)
+    assert wait_for(lambda: states.last.effort[0] == commands[-1].data)
+
+
+def test_replay_refuses_bags_it_cannot_reproduce(sample_bag, tmp_path):
+    foreign = tmp_path / 'foreign'
+    _copy(sample_bag, foreign, drop='/events')
+    refused = cli('replay', foreign)
+    assert refused.returncode == 2 and 'no start event' in refused.stderr, refused.stderr
+    device = cli('replay', sample_bag, '--device', 'cuda:7')
+    assert device.returncode == 2 and '--device cuda:7' in device.stderr
+    assert 'Traceback' not in refused.stderr + device.stderr
+    assert cli('replay', sample_bag, '--publish', '--rate', 0).returncode == 2
 
 
 def test_sigterm_ends_the_run_cleanly_and_finalises_the_bag(sim, ros_node, wait_for, tmp_path):

@@ -76,6 +76,7 @@ class SimNode(Node):
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
         self._stepping_thread = None
+        self._stopping = False                 # the run is over: requests are refused
         self._dt_ns = round(self.scene.dt * 1e9)
         self._last_warning: dict[str, float] = {}
         self._previous_showwarning = warnings.showwarning
@@ -91,11 +92,14 @@ class SimNode(Node):
             self._publish_and_record(self.scene_pub, scene_msg, 0)
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')}})
+            if self.recorder is not None:
+                self.recorder.flush()       # metadata.yaml and the scene exist from now on
         except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
             self.close_bag()
             raise
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._started = (time.monotonic(), 0)
+        self._last_step_wall = self._started[0]
         self.get_logger().info(
             f'scene {self.scene.name!r} ({len(self.sim.body_names)} bodies, joints '
             f'{", ".join(self.sim.joint_names)}), dt {self.scene.dt} s, device '
@@ -221,6 +225,8 @@ class SimNode(Node):
             return action()
         request = {'action': action, 'done': threading.Event()}
         with self._wake:
+            if self._stopping:
+                return None
             self._requests.append(request)
             self._wake.notify()
         while not request['done'].wait(0.1):
@@ -229,7 +235,8 @@ class SimNode(Node):
         return request.get('result')
 
     def _serve_requests(self, stopping: bool = False):
-        """Run (or, when stopping, cancel) the queued requests; called with the lock held."""
+        """Run (or, when stopping, cancel for good) the queued requests; with the lock held."""
+        self._stopping = stopping
         for request in self._requests:
             if not stopping:
                 request['result'] = request['action']()
@@ -289,8 +296,8 @@ class SimNode(Node):
             self.pacer.anchor(self.sim.time)
             return True
 
-        if changed:
-            self._in_stepping_thread(apply)
+        if changed and self._in_stepping_thread(apply) is None:
+            return SetParametersResult(successful=False, reason='the node is stopping')
         return SetParametersResult(successful=True)
 
     # ---- stepping ---------------------------------------------------------------------------

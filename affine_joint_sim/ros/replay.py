@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from rclpy.duration import Duration
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.rosbag2 import Reader
 
@@ -150,7 +151,10 @@ class _Resimulation:
     def __init__(self, scene: Scene, device: str, on_state=None):
         from affine_joint_sim.stepper import Stepper
 
-        self.sim = Stepper(scene, device=device)
+        try:
+            self.sim = Stepper(scene, device=device)
+        except (ValueError, RuntimeError) as exc:
+            raise ReplayError(f'--device {device}: {exc}') from None
         self.dt_ns = round(scene.dt * 1e9)
         self.wrapped = np.array([j.angle_mode == 'wrapped' for j in scene.joints])
         self.buffer = CommandBuffer(self.sim.joint_names)
@@ -216,14 +220,29 @@ def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
     run = _Resimulation(scene, device, writer.state if writer else None)
     names = run.sim.joint_names
     divergence = Divergence(names, np.zeros(len(names)), np.zeros(len(names)))
+    try:
+        _replay_messages(bag, run, writer, divergence, scene)
+    finally:
+        if writer:
+            writer.recorder.close()     # a readable bag even when the replay stops early
+    return divergence
+
+
+def _replay_messages(bag, run, writer, divergence, scene):
+    """Feed the bag's messages to ``run`` in order; accumulate ``divergence``."""
+    names = run.sim.joint_names
+    started = False
     for m in bag.messages:
         if m.kind in COMMAND_KEYS:
             run.pending.append(m)
             if writer:
                 writer.recorder.write(m.topic, m.t_ns, m.raw)
         elif m.kind == 'events':
+            if writer:
+                writer.recorder.write(m.topic, m.t_ns, m.raw)
             event = yaml.safe_load(deserialize_message(m.raw, message_class(m.msgtype)).data)
-            if event.get('event') == 'reset':
+            started = started or event.get('event') == 'start'
+            if event.get('event') == 'reset' and (run.sim.step_count or m.t_ns != run.epoch_ns):
                 run.reset(m.t_ns)
             if 'command_timeout' in event:
                 run.buffer.command_timeout = float(event['command_timeout'])
@@ -240,23 +259,26 @@ def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
             divergence.max_angle = np.maximum(divergence.max_angle, d_angle)
             divergence.max_velocity = np.maximum(divergence.max_velocity, d_velocity)
             divergence.states += 1
-    if writer:
-        writer.recorder.close()
-    return divergence
+    if not started:
+        raise ReplayError(f'{bag.path}: no start event on ~/events, so not a bag of the '
+                          'affine_joint_sim node (its bag time must be sim time)')
+    if divergence.states == 0:
+        raise ReplayError(f'{bag.path}: the bag holds no joint_states to compare')
 
 
 class _OutBag:
-    """The re-simulated run as a bag: its scene, the recorded commands, every new state."""
+    """The re-simulated run as a bag: its scene, the recorded commands and events, every new
+    state."""
 
     def __init__(self, path, storage, bag: RecordedBag, scene: Scene):
         topics = load_topics()
-        self.states_topic, scene_topic = (self._name(bag, key, topics)
-                                          for key in ('joint_states', 'scene'))
+        self.states_topic, scene_topic, events_topic = (
+            self._name(bag, key, topics) for key in ('joint_states', 'scene', 'events'))
         bag_topics = [BagTopic(name, msgtype, topics['joint_commands'].qos)
                       for name, msgtype in bag.command_topics.items()]
-        bag_topics += [BagTopic(self.states_topic, topics['joint_states'].type,
-                                topics['joint_states'].qos),
-                       BagTopic(scene_topic, topics['scene'].type, topics['scene'].qos)]
+        bag_topics += [BagTopic(name, topics[key].type, topics[key].qos) for key, name in (
+            ('joint_states', self.states_topic), ('scene', scene_topic),
+            ('events', events_topic))]
         try:
             self.recorder = BagRecorder(path, storage, bag_topics)
         except (FileExistsError, OSError) as exc:
@@ -296,14 +318,15 @@ def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
     rclpy.init()
     node = rclpy.create_node('affine_joint_sim_replay', namespace=namespace)
     try:
-        publishers = {name: node.create_publisher(message_class(msgtype), name,
-                                                  topics['joint_commands'].qos)
-                      for name, msgtype in bag.command_topics.items()}
+        # Relative names (as in topics.yaml), so --namespace decides where they go.
+        publishers = {m.topic: node.create_publisher(message_class(m.msgtype),
+                                                     topics[m.kind].name(m.joint),
+                                                     topics[m.kind].qos) for m in commands}
         deadline = time.monotonic() + wait
         while not any(p.get_subscription_count() for p in publishers.values()):
             if time.monotonic() > deadline:
-                raise ReplayError(f'nothing subscribes to {", ".join(publishers)} after '
-                                  f'{wait:g} s')
+                names = ', '.join(p.topic_name for p in publishers.values())
+                raise ReplayError(f'nothing subscribes to {names} after {wait:g} s')
             time.sleep(0.01)
         start_wall, start_bag = time.monotonic(), commands[0].t_ns
         for m in commands:
@@ -312,7 +335,8 @@ def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
                 time.sleep(delay)
             publishers[m.topic].publish(m.raw)
         for p in publishers.values():
-            p.wait_for_all_acked()
+            if not p.wait_for_all_acked(Duration(seconds=wait)):
+                raise ReplayError(f'{p.topic_name}: not acknowledged within {wait:g} s')
         return len(commands)
     finally:
         node.destroy_node()

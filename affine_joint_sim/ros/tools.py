@@ -59,7 +59,10 @@ def send(key: str, joint: str, value, namespace: str = '', timeout: float = 10.0
                   file=sys.stderr)
             return 1
         publisher.publish(topic.msg_class(data=value))
-        publisher.wait_for_all_acked(Duration(seconds=timeout))
+        if not publisher.wait_for_all_acked(Duration(seconds=timeout)):
+            print(f'affine-joint-sim: error: {full_name}: not acknowledged within {timeout:g} s',
+                  file=sys.stderr)
+            return 1
         print(f'{full_name}: {value}')
         return 0
     finally:
