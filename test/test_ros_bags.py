@@ -56,7 +56,7 @@ def test_record_then_replay_is_exact(sim, ros_node, wait_for, tmp_path, storage)
     assert wait_for(lambda: stamp_ns(states.last) > 20 * 10_000_000 and
                     states.last.effort[1] == 0.0)
     output = child.stop()
-    assert 'Traceback' not in output and f'bag: {bag}' in output
+    assert 'Traceback' not in output and f'bag: {bag}' in output, (child.returncode, output)
 
     metadata = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert metadata['version'] == 9 and metadata['storage_identifier'] == storage
