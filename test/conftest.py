@@ -4,9 +4,6 @@ The environment is set at import time, before any test module imports rclpy, and
 processes started by tests inherit it.
 """
 
-import os
-import pathlib
-import random
 import signal
 import subprocess
 import sys
@@ -14,16 +11,9 @@ import time
 
 import pytest
 
-REPO_ROOT = pathlib.Path(__file__).resolve().parent.parent
-FAST_DISCOVERY_PROFILE = REPO_ROOT / 'msg_configs' / 'fastdds_fast_discovery.xml'
+from affine_joint_sim.ros.dds import use_loopback_dds
 
-# The default discovery range multicasts on every interface; nothing here may leave loopback.
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-# A random domain per session keeps concurrent runs apart; 1..101 stays clear of domain 0 and
-# within the ports Fast DDS can compute for a localhost domain.
-os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
-# Cuts participant discovery from up to ~3 s to a few hundred ms (README, "DDS on loopback").
-os.environ.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE', str(FAST_DISCOVERY_PROFILE))
+use_loopback_dds()
 
 
 @pytest.fixture

@@ -70,3 +70,21 @@ def test_zero_timeout_holds_forever():
     buffer.torque('a', 1.0)
     buffer.apply(sim, 0.0)
     assert buffer.apply(sim, 1e6) == [] and sim.torque == {'a': 1.0}
+
+
+class Msg:
+    """Duck-typed Float64/Bool/JointState: take() reads only these fields."""
+
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+
+
+def test_take_dispatches_by_topic_and_names_unknown_joints():
+    buffer, sim = CommandBuffer(['a', 'b']), FakeStepper()
+    assert buffer.take('joint_torque', 'a', Msg(data=1.0)) == []
+    assert buffer.take('joint_enable', 'b', Msg(data=False)) == []
+    assert buffer.take('joint_commands', None, Msg(name=['b'], effort=[2.0])) == []
+    assert 'unknown joint' in buffer.take('joint_enable', 'zz', Msg(data=True))[0]
+    assert 'not finite' in buffer.take('joint_torque', 'a', Msg(data=math.nan))[0]
+    buffer.apply(sim, 0.0)
+    assert sim.torque == {'a': 1.0, 'b': 2.0} and sim.enabled == {'b': False}

@@ -5,8 +5,6 @@ lockstep, answers every state with a ``joint_commands`` message, as a controller
 Discovery stays on loopback.
 """
 
-import os
-import random
 import statistics
 import subprocess
 import sys
@@ -16,7 +14,7 @@ from typing import NamedTuple
 
 from affine_joint_sim.bench.report import Column, markdown_table, publish
 from affine_joint_sim.bench.section import add_section
-from affine_joint_sim.resources import config_dir
+from affine_joint_sim.ros.dds import use_loopback_dds
 
 __all__ = ['add_parser', 'run']
 
@@ -29,13 +27,6 @@ class Settings(NamedTuple):
 FULL = Settings(fast_seconds=3.0, lockstep_steps=2000)
 QUICK = Settings(fast_seconds=1.0, lockstep_steps=300)
 SCENES = ('pendulum', 'arm')
-
-
-def _ros_environment():
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
-    os.environ.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE',
-                          str(config_dir() / 'fastdds_fast_discovery.xml'))
 
 
 def _node(*flags) -> subprocess.Popen:
@@ -130,7 +121,7 @@ LOCKSTEP_COLUMNS = [Column('scene', 'scene'), Column('round_trips', 'round trips
 
 def run(results: Path, devices: list[str], settings: Settings) -> None:
     """Measure both on the CPU node (the DDS side does not depend on the Warp device)."""
-    _ros_environment()
+    use_loopback_dds()
     fast = [fast_rate(scene, settings) for scene in SCENES]
     lockstep = [lockstep_latency(scene, settings) for scene in SCENES]
     publish(results, 'ros_fast', '### joint_states rate, fast mode (CPU, dt 0.01 s)\n\n' +

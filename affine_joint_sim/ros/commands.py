@@ -44,9 +44,13 @@ class CommandBuffer:
         self._torque[k] = float(value)
         return None
 
-    def enable(self, joint: str, flag: bool) -> None:
-        """Queue the enable flag of ``joint``'s torque (the joint must exist)."""
-        self._enabled[self._index[joint]] = bool(flag)
+    def enable(self, joint: str, flag: bool) -> str | None:
+        """Queue the enable flag of ``joint``'s torque; returns why it was rejected, or None."""
+        k = self._index.get(joint)
+        if k is None:
+            return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
+        self._enabled[k] = bool(flag)
+        return None
 
     def joint_commands(self, names, efforts) -> list[str]:
         """Queue a ``joint_commands`` message's torques (``name[i]`` gets ``effort[i]``).
@@ -58,6 +62,16 @@ class CommandBuffer:
             return [f'{len(names)} names but {len(efforts)} efforts: message dropped']
         problems = [self.torque(name, effort) for name, effort in zip(names, efforts)]
         return [p for p in problems if p is not None]
+
+    def take(self, key: str, joint: str | None, msg) -> list[str]:
+        """Queue a command message as it arrived on the topic ``key`` of topics.yaml
+        (``joint_torque`` / ``joint_enable`` for ``joint``, or ``joint_commands``); returns the
+        reasons for what was dropped. The node and the bag replay both feed commands here."""
+        if key == 'joint_commands':
+            return self.joint_commands(list(msg.name), list(msg.effort))
+        queue = self.torque if key == 'joint_torque' else self.enable
+        problem = queue(joint, msg.data)
+        return [] if problem is None else [problem]
 
     def apply(self, stepper, sim_time: float) -> list[str]:
         """Write the queued commands into ``stepper`` for the step starting at ``sim_time`` [s].

@@ -136,15 +136,16 @@ class SimNode(Node):
         self.events_pub = self.create_publisher(t['events'].msg_class, t['events'].name(),
                                                 t['events'].qos)
         for joint in self.sim.joint_names:
-            self._subscribe('joint_torque', joint, self._on_torque)
-            self._subscribe('joint_enable', joint, self._on_enable)
-        self._subscribe('joint_commands', None, self._on_joint_commands)
+            self._subscribe('joint_torque', joint)
+            self._subscribe('joint_enable', joint)
+        self._subscribe('joint_commands', None)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
 
-    def _subscribe(self, key, joint, handler):
-        """Subscribe raw (CDR bytes, as the bag keeps them) and hand the decoded message on."""
+    def _subscribe(self, key, joint):
+        """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command; a
+        ``joint_commands`` message also releases the next lockstep step."""
         topic = self.topics[key]
         name = self.resolve_topic_name(topic.name(joint))
         msg_class = topic.msg_class
@@ -153,7 +154,11 @@ class SimNode(Node):
             with self._wake:
                 if self.recorder is not None:
                     self._inbox.append((name, raw))
-                handler(deserialize_message(raw, msg_class), name, joint)
+                for problem in self.commands.take(key, joint, deserialize_message(raw, msg_class)):
+                    self._reject(name, problem)
+                if key == 'joint_commands':
+                    self._released = True
+                    self._wake.notify()
 
         self.create_subscription(msg_class, name, receive, topic.qos, raw=True)
         self._command_topics.append(BagTopic(name, topic.type, topic.qos))
@@ -188,22 +193,8 @@ class SimNode(Node):
 
     # ---- commands ---------------------------------------------------------------------------
 
-    def _on_torque(self, msg, topic, joint):
-        self._reject(topic, self.commands.torque(joint, msg.data))
-
-    def _on_enable(self, msg, topic, joint):
-        self.commands.enable(joint, msg.data)
-
-    def _on_joint_commands(self, msg, topic, _):
-        for problem in self.commands.joint_commands(list(msg.name), list(msg.effort)):
-            self._reject(topic, problem)
-        self._released = True
-        self._wake.notify()
-
     def _reject(self, topic, problem):
         """Warn about a dropped command, at most once per ``_WARN_EVERY`` s per topic."""
-        if problem is None:
-            return
         now = time.monotonic()
         if now - self._last_warning.get(topic, -_WARN_EVERY) >= _WARN_EVERY:
             self._last_warning[topic] = now

@@ -181,14 +181,8 @@ class _Resimulation:
         due = [m for m in self.pending if m.t_ns <= now + _EPS_NS]
         self.pending = [m for m in self.pending if m.t_ns > now + _EPS_NS]
         for m in due:
-            msg = deserialize_message(m.raw, message_class(m.msgtype))
-            if m.kind == 'joint_torque':
-                self.buffer.torque(m.joint, msg.data)
-            elif m.kind == 'joint_enable':
-                if m.joint in self.buffer.joint_names:
-                    self.buffer.enable(m.joint, msg.data)
-            else:
-                self.buffer.joint_commands(list(msg.name), list(msg.effort))
+            self.buffer.take(m.kind, m.joint,
+                             deserialize_message(m.raw, message_class(m.msgtype)))
         self.buffer.apply(self.sim, self.sim.time)
         self.sim.step()
         self.previous, self.current = self.current, self._sample()
