@@ -133,7 +133,7 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
 
 
 def add_parser(sections) -> None:
-    add_section(sections, 'ros', run, FULL, QUICK,
+    add_section(sections, 'ros_loop', run, FULL, QUICK,
                 help='node over DDS: fast-mode joint_states rate, lockstep latency',
                 description='Run the node in a child process and measure the joint_states '
                             'rate in fast mode and the command-to-state round trip in lockstep.',
