@@ -14,9 +14,10 @@ import warnings
 import numpy as np
 import warp as wp
 
-from affine_joint_sim.physics import kernels as kernels_module
 from affine_joint_sim.physics.energy import mechanical_energy
-from affine_joint_sim.physics.kernels import STAT_FLOAT_NAMES, STAT_INT_NAMES, step_kernels
+from affine_joint_sim.physics.fields import (STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
+                                             device_model)
+from affine_joint_sim.physics.kernels import scalar_of, step_kernels
 from affine_joint_sim.physics.model import SimulationWarning, build_model
 from affine_joint_sim.scene import Scene
 
@@ -62,7 +63,7 @@ class Stepper:
         self._batched = num_envs is not None
         self._envs = 1 if num_envs is None else int(num_envs)
         self._host = build_model(scene)
-        self._k = step_kernels(wp.float64 if scene.solver.precision == 'float64' else wp.float32)
+        self._k = step_kernels(scalar_of(scene.solver.precision))
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
         self._allocate()
         self.reset()
@@ -142,8 +143,8 @@ class Stepper:
         for array, value in ((self._state.q, q0), (self._state.v, v0), (self._state.q_prev, q0),
                              (self._state.v_prev, v0)):
             array.assign(np.ascontiguousarray(value))
-        for array in (self._state.history_ready, self._state.joint_angle_continuous,
-                      self._state.joint_angle, self._state.joint_velocity,
+        for array in (self._state.history_ready, self._state.joint_coordinate,
+                      self._state.joint_position, self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float):
             array.zero_()
         self._warned = set()
@@ -229,69 +230,19 @@ class Stepper:
 
     def _allocate(self):
         k, h, dev, n = self._k, self._host, self.device, self._envs
-        nb, nj = h.body_count, h.joint_count
-        dtype = np.float64 if self.scene.solver.precision == 'float64' else np.float32
-
-        def const(values, wp_type):
-            return wp.array(np.ascontiguousarray(values), dtype=wp_type, device=dev)
-
-        model = k.Model()
-        model.dt = h.dt
-        model.gravity = k.vec3(*h.gravity)
-        model.has_gravity = int(np.any(h.gravity != 0.0))
-        model.integrator = h.integrator
-        model.newton_tol = h.newton_tol
-        model.newton_max_iter = h.newton_max_iter
-        model.line_search = int(h.line_search)
-        model.body_fixed = const(h.body_fixed, wp.int32)
-        model.body_mass = const(h.body_mass.astype(dtype), k.scalar)
-        model.body_second_moment = const(h.body_second_moment.astype(dtype), k.vec3)
-        model.body_ortho_coeff = const(h.body_ortho_coeff.astype(dtype), k.scalar)
-        model.body_half_extent = const(h.body_half_extent.astype(dtype), k.vec3)
-        model.body_joint_hessian = const(h.body_joint_hessian.astype(dtype), k.mat12)
-        model.elim_order = const(h.elim_order, wp.int32)
-        model.elim_parent = const(h.elim_parent, wp.int32)
-        model.elim_offdiag = const(h.elim_offdiag.astype(dtype), k.mat12)
-        model.joint_parent = const(h.joint_parent, wp.int32)
-        model.joint_child = const(h.joint_child, wp.int32)
-        model.joint_stiffness = const(h.joint_stiffness.astype(dtype), k.scalar)
-        model.joint_anchors = const(h.joint_anchors.astype(dtype), k.vec3)
-        model.joint_frames = const(h.joint_frames.astype(dtype), k.vec3)
-        model.joint_torque_model = const(h.joint_torque_model, wp.int32)
-        model.joint_angle_mode = const(h.joint_angle_mode, wp.int32)
-        model.joint_has_free = const(h.joint_has_free, wp.int32)
-        self._model = model
-
-        def zeros(shape, wp_type):
-            return wp.zeros(shape, dtype=wp_type, device=dev)
-
-        state = k.State()
-        for name in ('q', 'v', 'q_prev', 'v_prev'):
-            setattr(state, name, zeros((n, nb), k.vec12))
-        state.history_ready = zeros(n, wp.int32)
-        for name in ('joint_angle_continuous', 'joint_angle', 'joint_velocity', 'joint_effort'):
-            setattr(state, name, zeros((n, nj), k.scalar))
-        state.stats_int = zeros((n, len(STAT_INT_NAMES)), wp.int32)
-        state.stats_float = zeros((n, len(STAT_FLOAT_NAMES)), k.scalar)
-        self._state = state
-
-        control = k.Control()
-        control.joint_torque = zeros((n, nj), k.scalar)
-        control.joint_enabled = zeros((n, nj), wp.int32)
-        self._control = control
-
-        scratch = k.Scratch()
-        for name in ('q_n', 'q_tilde', 'q_start', 'dq', 'rhs'):
-            setattr(scratch, name, zeros((n, nb), k.vec12))
-        for name in ('factor', 'coupling'):
-            setattr(scratch, name, zeros((n, nb), k.mat12))
-        self._scratch = scratch
+        sizes = {'env': n, 'body': h.body_count, 'joint': h.joint_count,
+                 'stat_int': len(STAT_INT_NAMES), 'stat_float': len(STAT_FLOAT_NAMES)}
+        self._model = device_model(k, k.structs.Model, h, dev)
+        state, control, scratch = (allocate(k, getattr(k.structs, group.capitalize()), group,
+                                            sizes, dev)
+                                   for group in ('state', 'control', 'scratch'))
+        self._state, self._control, self._scratch = state, control, scratch
 
         # Host views: on CPU the device arrays themselves; on CUDA pinned mirrors that the
         # captured graph uploads (commands) before and downloads (outputs) after the kernel.
         inputs = (control.joint_torque, control.joint_enabled)
-        outputs = (state.joint_angle, state.joint_velocity, state.joint_effort, state.stats_int,
-                   state.stats_float, state.q, state.v)
+        outputs = (state.joint_position, state.joint_velocity, state.joint_effort,
+                   state.stats_int, state.stats_float, state.q, state.v)
         if self.device.is_cpu:
             self._mirror_inputs, self._mirror_outputs = [], []
             host_in, host_out = inputs, outputs
@@ -308,7 +259,7 @@ class Stepper:
 
     def _record(self):
         args = [self._model, self._state, self._control, self._scratch]
-        wp.load_module(kernels_module, device=self.device)
+        wp.load_module(self._k.step.module, device=self.device)
         with wp.ScopedCapture(device=self.device) as capture:
             for device_array, host_array in self._mirror_inputs:
                 wp.copy(device_array, host_array)

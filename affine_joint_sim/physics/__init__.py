@@ -1,5 +1,9 @@
-"""Physics of affine bodies with revolute joints: host-side model build and Warp kernels.
+"""Physics of affine bodies joined by joints: host-side model build and Warp kernels.
 
-Nothing here imports ROS. ``model`` turns a Scene into constant arrays (NumPy, float64);
-``kernels`` holds the Warp step kernel that advances every environment by one dt.
+Nothing here imports ROS. ``fields`` is the one table of Model / State / Control / Scratch
+fields; ``model`` turns a Scene into the model's constant arrays (NumPy, float64); the stage
+modules (``affine``, ``ortho``, ``joints``, ``commands``, ``potential``, ``assemble``,
+``tree_solve``, ``prediction``, ``newton``, ``commit``) each build their Warp functions per
+precision, and ``kernels`` composes them into the one-launch ``step`` kernel. ``evaluate``
+launches single stages for tests; ``energy`` is the host-side mechanical energy.
 """

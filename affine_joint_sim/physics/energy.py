@@ -38,7 +38,8 @@ def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray) -> np.n
 
     joints = np.zeros(bodies.shape)
     for k in np.flatnonzero(model.joint_has_free):
-        u0, u1, w0, w1 = model.joint_anchors[k]
+        u0, u1 = model.joint_parent_point0[k], model.joint_parent_point1[k]
+        w0, w1 = model.joint_child_point0[k], model.joint_child_point1[k]
         qp, qc = q[..., model.joint_parent[k], :], q[..., model.joint_child[k], :]
         d0 = qp @ jacobian(u0).T - qc @ jacobian(w0).T          # x_P(u0) − x_C(w0)
         d1 = qp @ jacobian(u1).T - qc @ jacobian(w1).T

@@ -7,60 +7,38 @@ state is q = [p, a1, a2, a3] with p the COM [m] and a_r the rows of A (physics_s
 
 import math
 import warnings
-from dataclasses import dataclass, field
 
 import numpy as np
 
+from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, GENERALIZED, JOINT_TYPES,
+                                            LEVER_ARM, WRAPPED)
+from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import mass_properties
 
-__all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'rotation_matrix',
-           'LEVER_ARM', 'GENERALIZED', 'WRAPPED', 'CONTINUOUS', 'BDF1', 'BDF2']
-
-LEVER_ARM, GENERALIZED = 0, 1
-WRAPPED, CONTINUOUS = 0, 1
-BDF1, BDF2 = 0, 1
+__all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'rotation_matrix']
 
 
 class SimulationWarning(UserWarning):
     """A scene or a step the simulator can run but whose result the user should know about."""
 
 
-@dataclass
 class HostModel:
-    """Constant model data of one scene (shared by all environments), float64.
+    """Constant model data of one scene (shared by all environments), NumPy float64.
 
-    Body arrays have one row per scene body, fixed ones included (their rows are unused by
-    the solver). ``elim_order`` lists the free bodies leaves-first: eliminating them in that
-    order factors the block-tree Newton system without fill-in.
+    Its attributes are exactly the model fields of ``physics.fields.FIELDS`` (names, units and
+    shapes are documented there) plus host-only ones: ``precision``, ``active_terms`` (the
+    terms a step evaluates), ``body_q0`` and ``body_v0`` (initial state and velocity, (nb, 12)).
+    Body arrays have one row per scene body, fixed ones included (unused by the solver).
     """
 
-    dt: float
-    gravity: np.ndarray
-    integrator: int
-    newton_tol: float
-    newton_max_iter: int
-    line_search: bool
-    precision: str
-    body_fixed: np.ndarray            # (nb,) int32
-    body_mass: np.ndarray             # (nb,) [kg]
-    body_second_moment: np.ndarray    # (nb, 3) diag of S [kg·m^2]
-    body_ortho_coeff: np.ndarray      # (nb,) κ·v̄ [J]
-    body_half_extent: np.ndarray      # (nb, 3) [m]
-    body_joint_hessian: np.ndarray    # (nb, 12, 12) Σ of the joints' constant diagonal blocks
-    body_q0: np.ndarray               # (nb, 12) initial state
-    body_v0: np.ndarray               # (nb, 12) initial velocity
-    elim_order: np.ndarray            # (nf,) int32
-    elim_parent: np.ndarray           # (nb,) int32, -1 for a root
-    elim_offdiag: np.ndarray          # (nb, 12, 12) H[b, elim_parent[b]]
-    joint_parent: np.ndarray          # (nj,) int32 body index (libuipc left, i)
-    joint_child: np.ndarray           # (nj,) int32 body index (libuipc right, j)
-    joint_stiffness: np.ndarray       # (nj,) K = strength_ratio (m_P + m_C) [kg]
-    joint_anchors: np.ndarray         # (nj, 4, 3) u0, u1 (parent rest), w0, w1 (child rest) [m]
-    joint_frames: np.ndarray          # (nj, 4, 3) n̄_P, b̄_P, n̄_C, b̄_C (rest frames)
-    joint_torque_model: np.ndarray    # (nj,) int32 LEVER_ARM | GENERALIZED
-    joint_angle_mode: np.ndarray      # (nj,) int32 WRAPPED | CONTINUOUS
-    joint_has_free: np.ndarray        # (nj,) int32, 0 when both bodies are fixed
-    active_terms: list[str] = field(default_factory=list)
+    def __init__(self, values: dict, **host_only):
+        expected = {f.name for f in fields_of('model')}
+        if set(values) != expected:
+            raise ValueError(f'host model fields differ from the table: missing '
+                             f'{sorted(expected - set(values))}, extra '
+                             f'{sorted(set(values) - expected)}')
+        vars(self).update(values)
+        vars(self).update(host_only)
 
     @property
     def body_count(self) -> int:
@@ -113,7 +91,7 @@ def _joint_frame(axis) -> tuple[np.ndarray, np.ndarray]:
 
 def build_model(scene) -> HostModel:
     """Precompute the constant arrays of ``scene``; warn about torques that cannot act."""
-    nb, nj = len(scene.bodies), len(scene.joints)
+    nb = len(scene.bodies)
     props = [mass_properties(b.shape, b.density, b.mass) for b in scene.bodies]
     rotations = [rotation_matrix(b.orientation) for b in scene.bodies]
     q0, v0 = np.zeros((nb, 12)), np.zeros((nb, 12))
@@ -124,61 +102,86 @@ def build_model(scene) -> HostModel:
             v0[i, 3:] = (_skew(body.angular_velocity) @ rot).reshape(9)
     fixed = np.array([b.fixed for b in scene.bodies], dtype=np.int32)
     mass = np.array([p.mass for p in props])
-
-    parent = np.array([scene.body_index(j.parent) for j in scene.joints], dtype=np.int32)
-    child = np.array([scene.body_index(j.child) for j in scene.joints], dtype=np.int32)
-    stiffness = np.array([j.strength_ratio * (mass[parent[k]] + mass[child[k]])
-                          for k, j in enumerate(scene.joints)])
-    anchors, frames = np.zeros((nj, 4, 3)), np.zeros((nj, 4, 3))
-    for k, joint in enumerate(scene.joints):
-        x0, x1 = np.asarray(joint.x0), np.asarray(joint.x1)
-        for side, body in enumerate((parent[k], child[k])):
-            rot, p = rotations[body], q0[body, :3]
-            anchors[k, 2 * side] = rot.T @ (x0 - p)      # rest point of x0 (A⁻¹ = Aᵀ at t = 0)
-            anchors[k, 2 * side + 1] = rot.T @ (x1 - p)
-        n, b = _joint_frame(x1 - x0)
-        frames[k] = [rotations[parent[k]].T @ n, rotations[parent[k]].T @ b,
-                     rotations[child[k]].T @ n, rotations[child[k]].T @ b]
+    joints = _joint_arrays(scene, rotations, q0, mass)
+    parent, child = joints['joint_parent'], joints['joint_child']
 
     joint_hessian = np.zeros((nb, 12, 12))
-    for k in range(nj):
-        u0, u1, w0, w1 = anchors[k]
-        joint_hessian[parent[k]] += stiffness[k] * (
-            jacobian(u0).T @ jacobian(u0) + jacobian(u1).T @ jacobian(u1))
-        joint_hessian[child[k]] += stiffness[k] * (
-            jacobian(w0).T @ jacobian(w0) + jacobian(w1).T @ jacobian(w1))
-    elim_order, elim_parent, elim_offdiag = _elimination(scene, fixed, parent, child,
-                                                         stiffness, anchors)
-    torque_model = np.array([LEVER_ARM if j.torque_model == 'lever_arm' else GENERALIZED
-                             for j in scene.joints], dtype=np.int32)
-    _warn_com_on_axis(scene, fixed, anchors, torque_model, parent, child)
+    for k in range(len(parent)):
+        blocks = _constant_blocks(joints, k)
+        joint_hessian[parent[k]] += blocks[0]
+        joint_hessian[child[k]] += blocks[2]
+    elim_order, elim_parent, elim_offdiag = _elimination(scene, fixed, joints)
+    _warn_com_on_axis(scene, fixed, joints)
 
     gravity = np.asarray(scene.gravity, dtype=np.float64)
-    has_free = np.array([not (fixed[parent[k]] and fixed[child[k]]) for k in range(nj)],
+    has_free = np.array([not (fixed[parent[k]] and fixed[child[k]]) for k in range(len(parent))],
                         dtype=np.int32)
     free = not fixed.all()
     active = [term for term, on in (
         ('inertia', free), ('orthogonality', free), ('gravity', free and gravity.any()),
         ('joints', bool(has_free.any()))) if on]
-    return HostModel(
-        dt=scene.dt, gravity=gravity,
+    values = dict(
+        dt=scene.dt, gravity=gravity, has_gravity=int(np.any(gravity != 0.0)),
         integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,
         newton_tol=scene.solver.newton_tol, newton_max_iter=scene.solver.newton_max_iter,
-        line_search=scene.solver.line_search, precision=scene.solver.precision,
+        line_search=int(scene.solver.line_search),
         body_fixed=fixed, body_mass=mass,
         body_second_moment=np.array([p.second_moment for p in props]),
         body_ortho_coeff=np.array([b.kappa * p.volume for b, p in zip(scene.bodies, props)]),
         body_half_extent=np.array([p.half_extent for p in props]),
-        body_joint_hessian=joint_hessian, body_q0=q0, body_v0=v0,
+        body_joint_hessian=joint_hessian,
         elim_order=elim_order, elim_parent=elim_parent, elim_offdiag=elim_offdiag,
-        joint_parent=parent, joint_child=child, joint_stiffness=stiffness,
-        joint_anchors=anchors, joint_frames=frames, joint_torque_model=torque_model,
-        joint_angle_mode=np.array([int(j.angle_mode == 'continuous') for j in scene.joints],
-                                  dtype=np.int32),
-        joint_has_free=has_free, active_terms=active)
+        joint_has_free=has_free, **joints)
+    return HostModel(values, precision=scene.solver.precision, active_terms=active,
+                     body_q0=q0, body_v0=v0)
 
 
-def _elimination(scene, fixed, parent, child, stiffness, anchors):
+def _joint_arrays(scene, rotations, q0, mass) -> dict:
+    """Per-joint model fields: type, bodies, stiffness, rest points and frames per side."""
+    nj = len(scene.joints)
+    out = {name: np.zeros((nj, 3)) for name in _SIDE_VECTORS}
+    out['joint_type'] = np.array([JOINT_TYPES[j.type] for j in scene.joints], dtype=np.int32)
+    parent = np.array([scene.body_index(j.parent) for j in scene.joints], dtype=np.int32)
+    child = np.array([scene.body_index(j.child) for j in scene.joints], dtype=np.int32)
+    out['joint_parent'], out['joint_child'] = parent, child
+    out['joint_stiffness'] = np.array([j.strength_ratio * (mass[parent[k]] + mass[child[k]])
+                                       for k, j in enumerate(scene.joints)])
+    for k, joint in enumerate(scene.joints):
+        x0, x1 = np.asarray(joint.x0), np.asarray(joint.x1)
+        n, b = _joint_frame(x1 - x0)
+        for side, body in (('parent', parent[k]), ('child', child[k])):
+            rot, p = rotations[body], q0[body, :3]
+            out[f'joint_{side}_point0'][k] = rot.T @ (x0 - p)   # rest point (A⁻¹ = Aᵀ at t = 0)
+            out[f'joint_{side}_point1'][k] = rot.T @ (x1 - p)
+            out[f'joint_{side}_normal'][k] = rot.T @ n
+            out[f'joint_{side}_binormal'][k] = rot.T @ b
+    out['joint_torque_model'] = np.array(
+        [LEVER_ARM if j.torque_model == 'lever_arm' else GENERALIZED for j in scene.joints],
+        dtype=np.int32)
+    out['joint_angle_mode'] = np.array(
+        [CONTINUOUS if j.angle_mode == 'continuous' else WRAPPED for j in scene.joints],
+        dtype=np.int32)
+    return out
+
+
+_SIDE_VECTORS = [f'joint_{side}_{what}' for side in ('parent', 'child')
+                 for what in ('point0', 'point1', 'normal', 'binormal')]
+
+
+def _constant_blocks(joints: dict, k: int):
+    """(H_PP, H_PC, H_CC) of joint k's energy where it is linear in q (constant) [kg].
+
+    Revolute (physics_spec §4.4): K Σ_m J(ū_m)ᵀJ(ū_m), −K Σ_m J(ū_m)ᵀJ(w̄_m), K Σ_m J(w̄_m)ᵀJ(w̄_m)
+    over its two anchor pairs."""
+    pairs = [(jacobian(joints[f'joint_parent_point{m}'][k]),
+              jacobian(joints[f'joint_child_point{m}'][k])) for m in (0, 1)]
+    stiffness = joints['joint_stiffness'][k]
+    return (stiffness * sum(jp.T @ jp for jp, _ in pairs),
+            -stiffness * sum(jp.T @ jc for jp, jc in pairs),
+            stiffness * sum(jc.T @ jc for _, jc in pairs))
+
+
+def _elimination(scene, fixed, joints):
     """Leaves-first order of the free bodies and each one's coupling block to its tree parent.
 
     Free bodies joined by joints form a forest. Each tree is rooted at a body jointed to a fixed
@@ -186,6 +189,7 @@ def _elimination(scene, fixed, parent, child, stiffness, anchors):
     every body before its tree parent, so block elimination in that order has no fill-in.
     """
     nb = len(fixed)
+    parent, child = joints['joint_parent'], joints['joint_child']
     neighbours = {b: [] for b in range(nb)}
     anchored = set()
     for k in range(len(parent)):
@@ -211,21 +215,20 @@ def _elimination(scene, fixed, parent, child, stiffness, anchors):
                 seen.add(other)
                 queue.append(other)
                 elim_parent[other] = body
-                u0, u1, w0, w1 = anchors[k]
-                h_pc = -stiffness[k] * (jacobian(u0).T @ jacobian(w0) +
-                                        jacobian(u1).T @ jacobian(w1))
+                h_pc = _constant_blocks(joints, k)[1]
                 elim_offdiag[other] = h_pc.T if other == child[k] else h_pc
         order += queue
     return np.array(order[::-1], dtype=np.int32), elim_parent, elim_offdiag
 
 
-def _warn_com_on_axis(scene, fixed, anchors, torque_model, parent, child):
+def _warn_com_on_axis(scene, fixed, joints):
     """lever_arm applies no torque to a body whose centre of mass lies on the axis: say so."""
     for k, joint in enumerate(scene.joints):
-        if torque_model[k] != LEVER_ARM:
+        if joints['joint_torque_model'][k] != LEVER_ARM:
             continue
-        for body, a0, a1 in ((parent[k], anchors[k, 0], anchors[k, 1]),
-                             (child[k], anchors[k, 2], anchors[k, 3])):
+        for side in ('parent', 'child'):
+            body = joints[f'joint_{side}'][k]
+            a0, a1 = joints[f'joint_{side}_point0'][k], joints[f'joint_{side}_point1'][k]
             e = (a1 - a0) / np.linalg.norm(a1 - a0)
             d = -a0
             r = d - (d @ e) * e

@@ -1,0 +1,74 @@
+"""Affine kinematics and the mass matrix (physics_spec §1): world points, Jacobians, M x.
+
+q = [p, a1, a2, a3] (rows a_r of A), world frame; the rest frame of a body is centred at its
+centre of mass, so M = blockdiag(m I3, S, S, S) with S = diag(s) [kg, kg·m^2].
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of affine kinematics for the types namespace ``t``."""
+    vec3, mat33, vec12, mat12, scalar = t.vec3, t.mat33, t.vec12, t.mat12, t.scalar
+    zero = t.zero
+
+    @wp.func
+    def affine(q: vec12):
+        """A of q (rows a1, a2, a3)."""
+        return mat33(q[3], q[4], q[5], q[6], q[7], q[8], q[9], q[10], q[11])
+
+    @wp.func
+    def world_point(q: vec12, x_bar: vec3):
+        """x = p + A x̄ [m] of the rest point x̄."""
+        return vec3(q[0], q[1], q[2]) + affine(q) @ x_bar
+
+    @wp.func
+    def jacobian_transpose(x_bar: vec3, f: vec3):
+        """J(x̄)ᵀ f = [f; f_1 x̄; f_2 x̄; f_3 x̄]: a force f at rest point x̄ as a 12-vector."""
+        return vec12(f[0], f[1], f[2],
+                     f[0] * x_bar[0], f[0] * x_bar[1], f[0] * x_bar[2],
+                     f[1] * x_bar[0], f[1] * x_bar[1], f[1] * x_bar[2],
+                     f[2] * x_bar[0], f[2] * x_bar[1], f[2] * x_bar[2])
+
+    @wp.func
+    def translation_part(f: vec3):
+        """A 3-vector as the translation of a 12-vector, affine part zero."""
+        return vec12(f[0], f[1], f[2], zero, zero, zero, zero, zero, zero, zero, zero, zero)
+
+    @wp.func
+    def affine_part(g: mat33):
+        """A 3×3 matrix as the affine 9 of a 12-vector (row-major), translation zero."""
+        return vec12(zero, zero, zero, g[0, 0], g[0, 1], g[0, 2], g[1, 0], g[1, 1], g[1, 2],
+                     g[2, 0], g[2, 1], g[2, 2])
+
+    @wp.func
+    def direction_jacobian_transpose(u_bar: vec3, f: vec3):
+        """J̊(ū)ᵀ f = [0; f_1 ū; f_2 ū; f_3 ū]: the gradient of f·(A ū) with respect to q."""
+        return affine_part(wp.outer(f, u_bar))
+
+    @wp.func
+    def mass_times(m: scalar, s: vec3, x: vec12):
+        """M x with M = blockdiag(m I3, S, S, S), S = diag(s) (COM-centred rest frame)."""
+        return vec12(m * x[0], m * x[1], m * x[2], s[0] * x[3], s[1] * x[4], s[2] * x[5],
+                     s[0] * x[6], s[1] * x[7], s[2] * x[8], s[0] * x[9], s[1] * x[10],
+                     s[2] * x[11])
+
+    @wp.func
+    def add_mass(h: mat12, m: scalar, s: vec3, scale: scalar):
+        """h + scale·M."""
+        out = h
+        for r in range(3):
+            out[r, r] += scale * m
+            for c in range(3):
+                out[3 + 3 * r + c, 3 + 3 * r + c] += scale * s[c]
+        return out
+
+    return SimpleNamespace(affine=affine, world_point=world_point,
+                           jacobian_transpose=jacobian_transpose,
+                           translation_part=translation_part, affine_part=affine_part,
+                           direction_jacobian_transpose=direction_jacobian_transpose,
+                           mass_times=mass_times, add_mass=add_mass)

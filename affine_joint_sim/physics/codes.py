@@ -1,0 +1,10 @@
+"""Integer codes shared by the host model and the kernels (per-joint and per-scene switches)."""
+
+__all__ = ['REVOLUTE', 'JOINT_TYPES', 'LEVER_ARM', 'GENERALIZED', 'WRAPPED', 'CONTINUOUS',
+           'BDF1', 'BDF2']
+
+REVOLUTE = 0
+JOINT_TYPES = {'revolute': REVOLUTE}            # scene name -> code
+LEVER_ARM, GENERALIZED = 0, 1                   # torque_model
+WRAPPED, CONTINUOUS = 0, 1                      # angle_mode
+BDF1, BDF2 = 0, 1                               # solver.integrator

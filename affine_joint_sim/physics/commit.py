@@ -1,0 +1,136 @@
+"""End of a step: accept or reject the Newton result, velocities, history, joint outputs, stats.
+
+A step whose state is non-finite, or in which a joint turns more than 0.9π (its multi-turn
+angle would alias), is rejected: that environment keeps its start-of-step state and flags the
+step. Otherwise velocities follow the integrator (§3.6, §3.7), the BDF2 history shifts and the
+joint coordinates advance by their unwrapped increments (§5.3).
+"""
+
+import math
+from types import SimpleNamespace
+
+import warp as wp
+
+from affine_joint_sim.physics.codes import BDF2, CONTINUOUS
+from affine_joint_sim.physics.fields import STAT_FLOAT_NAMES, STAT_INT_NAMES
+
+__all__ = ['build']
+
+_I = {name: i for i, name in enumerate(STAT_INT_NAMES)}
+_F = {name: i for i, name in enumerate(STAT_FLOAT_NAMES)}
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of the commit stage for the types namespace ``t``."""
+    scalar, zero, two, three, four = t.scalar, t.zero, t.two, t.three, t.four
+    pi, two_pi = t.pi, t.two_pi
+    alias_limit = scalar(0.9 * math.pi)   # |Δθ| per step [rad] beyond which angles alias
+    Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
+    joint_coordinate_step, joint_raw_coordinate = t.joint_coordinate_step, t.joint_raw_coordinate
+    joint_gap = t.joint_gap
+    s_iterations, s_halvings, s_converged = (_I['newton_iterations'],
+                                             _I['line_search_halvings'], _I['converged'])
+    s_failures, s_aliased, s_dropped = (_I['line_search_failures'], _I['angle_aliased'],
+                                        _I['torque_dropped'])
+    s_non_finite, s_rejected = _I['non_finite'], _I['step_rejected']
+    s_residual, s_gap = _F['residual'], _F['joint_gap']
+
+    @wp.func
+    def wrap_angle(x: scalar):
+        """x wrapped once into (−π, π]."""
+        out = x
+        if out > pi:
+            out -= two_pi
+        elif out <= -pi:
+            out += two_pi
+        return out
+
+    @wp.func
+    def candidate_velocities(model: Model, state: State, scratch: Scratch, env: int, bdf2: int):
+        """Velocities of the Newton result into scratch.velocity; 0 if any state is non-finite."""
+        dt = model.dt
+        finite = int(1)
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            qn = scratch.q_n[env, b]
+            v_new = (state.q[env, b] - qn) / dt
+            if bdf2 != 0:
+                v_new = (three * state.q[env, b] - four * qn
+                         + state.q_prev[env, b]) / (two * dt)
+            scratch.velocity[env, b] = v_new
+            if not (wp.isfinite(state.q[env, b]) and wp.isfinite(v_new)):
+                finite = 0
+        return finite
+
+    @wp.func
+    def aliasing(model: Model, state: State, env: int):
+        """1 if a joint turned more than 0.9π since the last committed coordinate."""
+        aliased = int(0)
+        for k in range(model.joint_parent.shape[0]):
+            step = joint_coordinate_step(model, state.q, env, k,
+                                         state.joint_coordinate[env, k])
+            if wp.abs(step) > alias_limit:
+                aliased = 1
+        return aliased
+
+    @wp.func
+    def commit(model: Model, state: State, scratch: Scratch, env: int):
+        """Accept the step: velocities and history (§3.6, §3.7), joint coordinates."""
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            state.q_prev[env, b] = scratch.q_n[env, b]
+            state.v_prev[env, b] = state.v[env, b]
+            state.v[env, b] = scratch.velocity[env, b]
+        if model.integrator == BDF2:
+            state.history_ready[env] = 1
+        for k in range(model.joint_parent.shape[0]):
+            previous = state.joint_coordinate[env, k]
+            delta = joint_coordinate_step(model, state.q, env, k, previous)
+            state.joint_coordinate[env, k] = previous + delta
+            state.joint_velocity[env, k] = delta / model.dt
+            if model.joint_angle_mode[k] == CONTINUOUS:
+                state.joint_position[env, k] = previous + delta
+            else:
+                state.joint_position[env, k] = wrap_angle(
+                    joint_raw_coordinate(model, state.q, env, k))
+
+    @wp.func
+    def finish(model: Model, state: State, scratch: Scratch, env: int, bdf2: int):
+        """Commit or reject the step. Returns (finite, aliased, rejected)."""
+        finite = candidate_velocities(model, state, scratch, env, bdf2)
+        aliased = aliasing(model, state, env)
+        rejected = int(0)
+        if finite == 0 or aliased != 0:
+            rejected = 1
+            for k in range(model.elim_order.shape[0]):
+                b = model.elim_order[k]
+                state.q[env, b] = scratch.q_n[env, b]
+        else:
+            commit(model, state, scratch, env)
+        return finite, aliased, rejected
+
+    @wp.func
+    def largest_gap(model: Model, state: State, env: int):
+        """Largest constraint gap over the joints [m]."""
+        gap = zero
+        for k in range(model.joint_parent.shape[0]):
+            gap = wp.max(gap, joint_gap(model, state.q, env, k))
+        return gap
+
+    @wp.func
+    def write_stats(state: State, env: int, iterations: int, halvings: int, converged: int,
+                    failures: int, aliased: int, dropped: int, finite: int, rejected: int,
+                    residual: scalar, gap: scalar):
+        """The step's statistics, addressed by the names of physics.fields."""
+        state.stats_int[env, s_iterations] = iterations
+        state.stats_int[env, s_halvings] = halvings
+        state.stats_int[env, s_converged] = converged
+        state.stats_int[env, s_failures] = failures
+        state.stats_int[env, s_aliased] = aliased
+        state.stats_int[env, s_dropped] = dropped
+        state.stats_int[env, s_non_finite] = 1 - finite
+        state.stats_int[env, s_rejected] = rejected
+        state.stats_float[env, s_residual] = residual
+        state.stats_float[env, s_gap] = gap
+
+    return SimpleNamespace(finish=finish, largest_gap=largest_gap, write_stats=write_stats)

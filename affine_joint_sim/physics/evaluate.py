@@ -1,0 +1,89 @@
+"""Stages of the step launched one at a time on one environment: for tests and tools.
+
+``Stages(scene)`` evaluates the incremental potential, its gradient and Newton blocks, and the
+tree solve at any state the caller gives, through the same Warp functions the step kernel runs.
+States are NumPy (n_bodies, 12) arrays [m, -]; gradients and Hessians cover the free bodies'
+DOFs in scene order (12 per free body).
+"""
+
+import numpy as np
+import warp as wp
+
+from affine_joint_sim.physics.fields import allocate, device_model
+from affine_joint_sim.physics.kernels import scalar_of, step_kernels
+from affine_joint_sim.physics.model import build_model
+
+__all__ = ['Stages']
+
+_PROBES = {}
+
+
+def _probe_kernels(t):
+    """Kernels launching single stages for the types namespace ``t`` (built once)."""
+    if t.name in _PROBES:
+        return _PROBES[t.name]
+    Model, Scratch, vec12, scalar = t.structs.Model, t.structs.Scratch, t.vec12, t.scalar
+    incremental_potential, assemble, solve_tree = (t.incremental_potential, t.assemble,
+                                                   t.solve_tree)
+    one = t.one
+
+    @wp.kernel(module='unique')
+    def energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
+               out: wp.array(dtype=scalar)):
+        out[0] = incremental_potential(model, q, scratch, 0, one)
+
+    @wp.kernel(module='unique')
+    def newton_system(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch):
+        assemble(model, q, scratch, 0, one)
+        solve_tree(model, scratch, 0)
+
+    _PROBES[t.name] = (energy, newton_system)
+    return _PROBES[t.name]
+
+
+class Stages:
+    """One environment of ``scene`` whose stages can be evaluated at arbitrary states."""
+
+    def __init__(self, scene, device: str = 'cpu'):
+        self.host = build_model(scene)
+        self.t = step_kernels(scalar_of(scene.solver.precision))
+        self.device = device
+        nb = self.host.body_count
+        sizes = {'env': 1, 'body': nb, 'joint': self.host.joint_count}
+        self.model = device_model(self.t, self.t.structs.Model, self.host, device)
+        self.scratch = allocate(self.t, self.t.structs.Scratch, 'scratch', sizes, device)
+        self.free = [b for b in range(nb) if not self.host.body_fixed[b]]
+        self._q = wp.zeros((1, nb), dtype=self.t.vec12, device=device)
+        self._out = wp.zeros(1, dtype=self.t.scalar, device=device)
+        self._energy, self._newton_system = _probe_kernels(self.t)
+
+    def _load(self, q, q_tilde):
+        self._q.assign(np.asarray(q)[None])
+        self.scratch.q_tilde.assign(np.asarray(q_tilde)[None])
+
+    def energy(self, q, q_tilde) -> float:
+        """E(q) against the prediction q_tilde (BDF1 kinetic scale) [J·s²]."""
+        self._load(q, q_tilde)
+        wp.launch(self._energy, dim=1, inputs=[self.model, self._q, self.scratch, self._out],
+                  device=self.device)
+        return float(self._out.numpy()[0])
+
+    def newton_system(self, q, q_tilde):
+        """(∇E, dense ∇²E as assembled (PSD-projected), tree-solve direction dq) over the
+        free DOFs at q."""
+        self._load(q, q_tilde)
+        wp.launch(self._newton_system, dim=1, inputs=[self.model, self._q, self.scratch],
+                  device=self.device)
+        rhs, blocks = self.scratch.rhs.numpy()[0], self.scratch.hessian.numpy()[0]
+        dq = self.scratch.dq.numpy()[0]
+        index = {b: i for i, b in enumerate(self.free)}
+        hessian = np.zeros((12 * len(self.free),) * 2)
+        for b, i in index.items():
+            hessian[12 * i:12 * i + 12, 12 * i:12 * i + 12] = blocks[b]
+            p = self.host.elim_parent[b]
+            if p >= 0:
+                j, off = index[p], self.host.elim_offdiag[b]
+                hessian[12 * i:12 * i + 12, 12 * j:12 * j + 12] = off
+                hessian[12 * j:12 * j + 12, 12 * i:12 * i + 12] = off.T
+        gradient = -np.concatenate([rhs[b] for b in self.free])
+        return gradient, hessian, np.concatenate([dq[b] for b in self.free])

@@ -1,0 +1,158 @@
+"""The one table of Model / State / Control / Scratch fields: name, dtype, shape, unit.
+
+Everything else follows from it: the Warp structs the step kernel reads (``structs``), the
+device arrays the Stepper allocates (``allocate``) and the check that a host model carries
+exactly the model's fields (``HostModel``). Shapes are symbolic: ``body`` (every scene body,
+fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments) and the
+statistics columns; ``()`` is a plain struct member, not an array. Frames: world, SI units.
+"""
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import numpy as np
+import warp as wp
+
+__all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'structs',
+           'allocate', 'device_model', 'fields_of']
+
+
+@dataclass(frozen=True)
+class Field:
+    """One field: ``dtype`` is int32, scalar (the precision's float), vec3, vec12 or mat12."""
+
+    name: str
+    group: str
+    dtype: str
+    shape: tuple
+    unit: str
+    doc: str
+
+
+def _fields(group, rows):
+    return [Field(name, group, dtype, shape, unit, doc) for name, dtype, shape, unit, doc in rows]
+
+
+STAT_INT_NAMES = ('newton_iterations', 'line_search_halvings', 'converged',
+                  'line_search_failures', 'angle_aliased', 'torque_dropped', 'non_finite',
+                  'step_rejected')
+STAT_FLOAT_NAMES = ('residual', 'joint_gap')
+
+B, F, J, E = ('body',), ('free',), ('joint',), ('env',)
+EB, EJ = ('env', 'body'), ('env', 'joint')
+
+FIELDS = _fields('model', [
+    ('dt', 'scalar', (), 's', 'time step'),
+    ('gravity', 'vec3', (), 'm/s^2', 'gravity acceleration, world'),
+    ('has_gravity', 'int32', (), '-', '0 when gravity is zero: the term is skipped'),
+    ('integrator', 'int32', (), '-', 'BDF1 | BDF2 (physics.codes)'),
+    ('newton_tol', 'scalar', (), 'm/s', 'update displacement / dt at convergence'),
+    ('newton_max_iter', 'int32', (), '-', 'Newton iterations per step at most'),
+    ('line_search', 'int32', (), '-', '1: backtracking line search on E'),
+    ('body_fixed', 'int32', B, '-', '1: kinematic body, no DOFs'),
+    ('body_mass', 'scalar', B, 'kg', 'm'),
+    ('body_second_moment', 'vec3', B, 'kg·m^2', 'diagonal of S about the COM, body axes'),
+    ('body_ortho_coeff', 'scalar', B, 'J', 'κ·v̄ of the orthogonality energy'),
+    ('body_half_extent', 'vec3', B, 'm', 'half box extents: corners of the convergence test'),
+    ('body_joint_hessian', 'mat12', B, 'kg', 'Σ of the joints\' constant diagonal blocks'),
+    ('elim_order', 'int32', F, '-', 'free bodies leaves-first (fill-in free elimination)'),
+    ('elim_parent', 'int32', B, '-', 'tree parent in the elimination, -1 for a root'),
+    ('elim_offdiag', 'mat12', B, 'kg', 'constant coupling block H[b, elim_parent[b]]'),
+    ('joint_type', 'int32', J, '-', 'REVOLUTE (UID 18) (physics.codes)'),
+    ('joint_parent', 'int32', J, '-', 'parent body index (libuipc left, i)'),
+    ('joint_child', 'int32', J, '-', 'child body index (libuipc right, j)'),
+    ('joint_stiffness', 'scalar', J, 'kg', 'K = strength_ratio (m_P + m_C)'),
+    ('joint_has_free', 'int32', J, '-', '0 when both bodies are fixed'),
+    ('joint_parent_point0', 'vec3', J, 'm', 'parent rest point of x0 (revolute u0)'),
+    ('joint_parent_point1', 'vec3', J, 'm', 'parent rest point of x1 (revolute u1)'),
+    ('joint_child_point0', 'vec3', J, 'm', 'child rest point of x0 (revolute w0)'),
+    ('joint_child_point1', 'vec3', J, 'm', 'child rest point of x1 (revolute w1)'),
+    ('joint_parent_normal', 'vec3', J, '-', 'n̄ of the joint frame in the parent rest frame'),
+    ('joint_parent_binormal', 'vec3', J, '-', 'b̄ of the joint frame in the parent rest frame'),
+    ('joint_child_normal', 'vec3', J, '-', 'n̄ of the joint frame in the child rest frame'),
+    ('joint_child_binormal', 'vec3', J, '-', 'b̄ of the joint frame in the child rest frame'),
+    ('joint_torque_model', 'int32', J, '-', 'LEVER_ARM | GENERALIZED (physics.codes)'),
+    ('joint_angle_mode', 'int32', J, '-', 'WRAPPED | CONTINUOUS (physics.codes)'),
+]) + _fields('state', [
+    ('q', 'vec12', EB, 'm, -', 'ABD state [p, a1, a2, a3]'),
+    ('v', 'vec12', EB, 'm/s, 1/s', 'ABD velocity q̇'),
+    ('q_prev', 'vec12', EB, 'm, -', 'BDF2 history q_{n-1}'),
+    ('v_prev', 'vec12', EB, 'm/s, 1/s', 'BDF2 history v_{n-1}'),
+    ('history_ready', 'int32', E, '-', '0: the next step is a BDF1 start step'),
+    ('joint_coordinate', 'scalar', EJ, 'rad', 'multi-turn joint coordinate x of the last step'),
+    ('joint_position', 'scalar', EJ, 'rad', 'reported coordinate (per angle_mode)'),
+    ('joint_velocity', 'scalar', EJ, 'rad/s', 'Δx / dt of the last step'),
+    ('joint_effort', 'scalar', EJ, 'N·m', 'torque applied in the last step'),
+    ('stats_int', 'int32', ('env', 'stat_int'), '-', 'STAT_INT_NAMES of the last step'),
+    ('stats_float', 'scalar', ('env', 'stat_float'), 'm/s, m', 'STAT_FLOAT_NAMES'),
+]) + _fields('control', [
+    ('joint_torque', 'scalar', EJ, 'N·m', 'external torque τ (UID 668)'),
+    ('joint_enabled', 'int32', EJ, '-', 'external_torque/is_constrained'),
+]) + _fields('scratch', [
+    ('q_n', 'vec12', EB, 'm, -', 'start-of-step state'),
+    ('q_tilde', 'vec12', EB, 'm, -', 'predicted state q̃'),
+    ('q_start', 'vec12', EB, 'm, -', 'state at the start of a line search'),
+    ('dq', 'vec12', EB, 'm, -', 'Newton direction'),
+    ('rhs', 'vec12', EB, 'J', '−∇E of the current iterate'),
+    ('forward', 'vec12', EB, 'J', 'L⁻¹ rhs of the tree solve'),
+    ('velocity', 'vec12', EB, 'm/s, 1/s', 'velocity of the candidate end-of-step state'),
+    ('hessian', 'mat12', EB, 'kg', 'diagonal Hessian blocks of the current iterate'),
+    ('factor', 'mat12', EB, 'kg^½', 'Cholesky factors of the tree solve'),
+    ('coupling', 'mat12', EB, 'kg^½', 'L⁻¹ H[b, parent] of the tree solve'),
+])
+
+GROUPS = ('model', 'state', 'control', 'scratch')
+
+
+def fields_of(group: str) -> list[Field]:
+    """The fields of one group, in table order."""
+    return [f for f in FIELDS if f.group == group]
+
+
+def _wp_type(t, dtype):
+    return wp.int32 if dtype == 'int32' else getattr(t, dtype)
+
+
+def _annotation(t, f):
+    kind = _wp_type(t, f.dtype)
+    if f.shape == ():
+        return kind
+    return wp.array(dtype=kind) if len(f.shape) == 1 else wp.array2d(dtype=kind)
+
+
+def structs(t) -> SimpleNamespace:
+    """Warp structs Model, State, Control, Scratch for the types namespace ``t``."""
+    made = {}
+    for group in GROUPS:
+        name = group.capitalize()
+        cls = type(f'{name}_{t.name}', (), {
+            '__annotations__': {f.name: _annotation(t, f) for f in fields_of(group)},
+            '__module__': __name__, '__doc__': f'{name} fields of physics.fields.FIELDS.'})
+        made[name] = wp.struct(cls)
+    return SimpleNamespace(**made)
+
+
+def _numpy_dtype(t, dtype):
+    return np.int32 if dtype == 'int32' else t.numpy_scalar
+
+
+def device_model(t, struct, host, device):
+    """The Model struct filled from a host model (attributes named as the model fields)."""
+    model = struct()
+    for f in fields_of('model'):
+        value = getattr(host, f.name)
+        if f.shape == ():
+            setattr(model, f.name, _wp_type(t, f.dtype)(*np.atleast_1d(value)))
+        else:
+            array = np.ascontiguousarray(np.asarray(value).astype(_numpy_dtype(t, f.dtype)))
+            setattr(model, f.name, wp.array(array, dtype=_wp_type(t, f.dtype), device=device))
+    return model
+
+
+def allocate(t, struct, group, sizes: dict, device):
+    """A ``group`` struct of zeroed device arrays; ``sizes`` maps symbolic dims to lengths."""
+    instance = struct()
+    for f in fields_of(group):
+        shape = tuple(sizes[d] for d in f.shape)
+        setattr(instance, f.name, wp.zeros(shape, dtype=_wp_type(t, f.dtype), device=device))
+    return instance

@@ -1,0 +1,136 @@
+"""Revolute joint (UID 18) and its scalar torque (UID 668): physics_spec §4–§6.
+
+Energy K/2 (|d0|² + |d1|²) with anchor gaps d_m = x_P(u_m) − x_C(w_m) (linear in q, so its
+Hessian is the constant of physics.model's joint blocks); coordinate θ(q), the right-hand
+rotation of the child against the parent about x1 − x0 (§5.1); the torque enters q̃ explicitly,
+by the seed's lever-arm force (§6a) or the #448 generalized couple (§6b).
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+from affine_joint_sim.physics.codes import LEVER_ARM
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of the revolute joint for the types namespace ``t``."""
+    vec3, mat33, vec12, scalar = t.vec3, t.mat33, t.vec12, t.scalar
+    zero, half = t.zero, t.half
+    Model, Scratch = t.structs.Model, t.structs.Scratch
+    affine, world_point, jacobian_transpose = t.affine, t.world_point, t.jacobian_transpose
+    translation_part, affine_part = t.translation_part, t.affine_part
+
+    @wp.func
+    def gaps(model: Model, qp: vec12, qc: vec12, k: int):
+        """Anchor gaps d0 = x_P(u0) − x_C(w0), d1 = x_P(u1) − x_C(w1) [m]."""
+        d0 = world_point(qp, model.joint_parent_point0[k]) - world_point(
+            qc, model.joint_child_point0[k])
+        d1 = world_point(qp, model.joint_parent_point1[k]) - world_point(
+            qc, model.joint_child_point1[k])
+        return d0, d1
+
+    @wp.func
+    def energy(model: Model, qp: vec12, qc: vec12, k: int):
+        """K/2 (|d0|² + |d1|²) (no dt², physics_spec §3.3)."""
+        d0, d1 = gaps(model, qp, qc, k)
+        return half * model.joint_stiffness[k] * (wp.dot(d0, d0) + wp.dot(d1, d1))
+
+    @wp.func
+    def gradients(model: Model, qp: vec12, qc: vec12, k: int):
+        """(∇_P E, ∇_C E) of the energy."""
+        d0, d1 = gaps(model, qp, qc, k)
+        stiffness = model.joint_stiffness[k]
+        g_parent = stiffness * (jacobian_transpose(model.joint_parent_point0[k], d0)
+                                + jacobian_transpose(model.joint_parent_point1[k], d1))
+        g_child = -stiffness * (jacobian_transpose(model.joint_child_point0[k], d0)
+                                + jacobian_transpose(model.joint_child_point1[k], d1))
+        return g_parent, g_child
+
+    @wp.func
+    def gap(model: Model, qp: vec12, qc: vec12, k: int):
+        """Largest anchor gap [m]."""
+        d0, d1 = gaps(model, qp, qc, k)
+        return wp.max(wp.length(d0), wp.length(d1))
+
+    @wp.func
+    def angle(model: Model, qp: vec12, qc: vec12, k: int):
+        """θ(q) ∈ (−π, π]: right-hand rotation of child vs parent about x1 − x0 (§5.1)."""
+        ap = affine(qp)
+        ac = affine(qc)
+        n_p = ap @ model.joint_parent_normal[k]
+        b_p = ap @ model.joint_parent_binormal[k]
+        n_c = ac @ model.joint_child_normal[k]
+        b_c = ac @ model.joint_child_binormal[k]
+        c = half * (wp.dot(n_p, n_c) + wp.dot(b_p, b_c))
+        s = half * (wp.dot(b_p, n_c) - wp.dot(n_p, b_c))
+        return wp.atan2(s, c)
+
+    @wp.func
+    def lever_arm_force(q: vec12, anchor0: vec3, anchor1: vec3, tau: scalar):
+        """Seed formula §6a: a force at the COM whose moment about the axis is τ ê [N]."""
+        a = affine(q)
+        e = wp.normalize(a @ (anchor1 - anchor0))
+        d = -(a @ anchor0)
+        r = d - wp.dot(d, e) * e
+        r2 = wp.dot(r, r)
+        if r2 > scalar(1.0e-12):
+            return tau * wp.cross(e, r) / r2
+        return vec3()
+
+    @wp.func
+    def couple_acceleration(a: mat33, e: vec3, tau: scalar, s: vec3):
+        """#448 generalized force (τ/2)[ê]× A⁻ᵀ mapped by S⁻¹ to an affine acceleration.
+
+        Returns (acceleration 12-vector, 1) or (zero, 0) when A is near-singular (§6c guard).
+        """
+        rows = wp.length(vec3(a[0, 0], a[0, 1], a[0, 2])) * wp.length(
+            vec3(a[1, 0], a[1, 1], a[1, 2])) * wp.length(vec3(a[2, 0], a[2, 1], a[2, 2]))
+        if rows <= zero or wp.abs(wp.determinant(a)) < scalar(1.0e-6) * rows:
+            return vec12(), 0
+        f = half * tau * (wp.skew(e) @ wp.transpose(wp.inverse(a)))
+        acc = mat33()
+        for r in range(3):
+            for c in range(3):
+                acc[r, c] = f[r, c] / s[c]
+        return affine_part(acc), 1
+
+    @wp.func
+    def apply_torque(model: Model, qp: vec12, qc: vec12, scratch: Scratch, env: int, k: int,
+                     tau: scalar, scale: scalar):
+        """Add scale·a_ext of torque τ [N·m] at the start-of-step state to q̃ of both bodies.
+
+        Returns 1 if a near-singular body dropped the torque (generalized model)."""
+        dropped = int(0)
+        bp = model.joint_parent[k]
+        bc = model.joint_child[k]
+        u0 = model.joint_parent_point0[k]
+        u1 = model.joint_parent_point1[k]
+        w0 = model.joint_child_point0[k]
+        w1 = model.joint_child_point1[k]
+        if model.joint_torque_model[k] == LEVER_ARM:
+            if model.body_fixed[bp] == 0:
+                f = lever_arm_force(qp, u0, u1, -tau) * (scale / model.body_mass[bp])
+                scratch.q_tilde[env, bp] += translation_part(f)
+            if model.body_fixed[bc] == 0:
+                f = lever_arm_force(qc, w0, w1, tau) * (scale / model.body_mass[bc])
+                scratch.q_tilde[env, bc] += translation_part(f)
+        else:
+            ap = affine(qp)
+            ac = affine(qc)
+            e_child = half * (wp.normalize(ap @ (u1 - u0)) + wp.normalize(ac @ (w1 - w0)))
+            if model.body_fixed[bp] == 0:
+                acc, ok = couple_acceleration(ap, -e_child, tau, model.body_second_moment[bp])
+                scratch.q_tilde[env, bp] += scale * acc
+                dropped = dropped | (1 - ok)
+            if model.body_fixed[bc] == 0:
+                acc, ok = couple_acceleration(ac, e_child, tau, model.body_second_moment[bc])
+                scratch.q_tilde[env, bc] += scale * acc
+                dropped = dropped | (1 - ok)
+        return dropped
+
+    return SimpleNamespace(energy=energy, gradients=gradients, gap=gap, angle=angle,
+                           lever_arm_force=lever_arm_force,
+                           couple_acceleration=couple_acceleration, apply_torque=apply_torque)

@@ -1,0 +1,110 @@
+"""Newton's method on the incremental potential (physics_spec §3.4–3.5, preface §7).
+
+From q̃: assemble, tree-solve, test convergence on the fresh direction (largest box-corner
+displacement and largest affine entry ≤ newton_tol·dt), then a backtracking line search on E
+(≤ 8 halvings, accept on no increase). Runs inside the step kernel: no host sync.
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of the Newton loop for the types namespace ``t``."""
+    vec12, scalar = t.vec12, t.scalar
+    zero, half, one = t.zero, t.half, t.one
+    Model, Scratch = t.structs.Model, t.structs.Scratch
+    assemble, solve_tree = t.assemble, t.solve_tree
+    incremental_potential = t.incremental_potential
+
+    @wp.func
+    def update_size(model: Model, scratch: Scratch, env: int):
+        """Largest vertex displacement over box corners [m] and largest affine entry of dq."""
+        disp = zero
+        affine_max = zero
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            dq = scratch.dq[env, b]
+            h = model.body_half_extent[b]
+            for r in range(3):
+                corner = wp.abs(dq[r])
+                for c in range(3):
+                    corner += wp.abs(dq[3 + 3 * r + c]) * h[c]
+                    affine_max = wp.max(affine_max, wp.abs(dq[3 + 3 * r + c]))
+                disp = wp.max(disp, corner)
+        return disp, affine_max
+
+    @wp.func
+    def move(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, alpha: scalar):
+        """q = q_start + α dq on the free bodies."""
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            q[env, b] = scratch.q_start[env, b] + alpha * scratch.dq[env, b]
+
+    @wp.func
+    def line_search(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                    kinetic_scale: scalar, energy: scalar):
+        """Halve α from 1 until E(q_start + α dq) ≤ energy (8 halvings at most).
+
+        Returns (E at the last trial, halvings, 1 if a trial was accepted)."""
+        alpha = one
+        accepted = int(0)
+        halvings = int(0)
+        trial = zero
+        for ls in range(9):
+            move(model, q, scratch, env, alpha)
+            trial = incremental_potential(model, q, scratch, env, kinetic_scale)
+            if trial <= energy:
+                accepted = 1
+                break
+            if ls < 8:
+                alpha = alpha * half
+                halvings += 1
+        return trial, halvings, accepted
+
+    @wp.func
+    def newton(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+               kinetic_scale: scalar):
+        """Minimise E from q = q̃. Returns (iterations, halvings, line-search failures,
+        converged, residual [m/s])."""
+        n_free = model.elim_order.shape[0]
+        dt = model.dt
+        for k in range(n_free):
+            b = model.elim_order[k]
+            q[env, b] = scratch.q_tilde[env, b]
+        tol = model.newton_tol * dt
+        energy = zero
+        if model.line_search != 0:
+            energy = incremental_potential(model, q, scratch, env, kinetic_scale)
+        iterations = int(0)
+        halvings = int(0)
+        failures = int(0)
+        converged = int(0)
+        residual = zero
+        for it in range(model.newton_max_iter):
+            assemble(model, q, scratch, env, kinetic_scale)
+            solve_tree(model, scratch, env)
+            disp, affine_max = update_size(model, scratch, env)
+            residual = wp.max(disp, affine_max) / dt
+            iterations = it + 1
+            for k in range(n_free):
+                b = model.elim_order[k]
+                scratch.q_start[env, b] = q[env, b]
+            if disp <= tol and affine_max <= tol:
+                move(model, q, scratch, env, one)
+                converged = 1
+                break
+            if model.line_search == 0:
+                move(model, q, scratch, env, one)
+                continue
+            trial, used, accepted = line_search(model, q, scratch, env, kinetic_scale, energy)
+            halvings += used
+            failures += 1 - accepted
+            energy = trial
+        return iterations, halvings, failures, converged, residual
+
+    return SimpleNamespace(update_size=update_size, move=move, line_search=line_search,
+                           newton=newton)

@@ -1,0 +1,38 @@
+"""The incremental potential E(q) of one environment (physics_spec §3.3), for the line search.
+
+E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q); the
+joint terms carry no dt². kinetic_scale is 1 (BDF1) or 9/4 (BDF2).
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of the incremental potential for the types namespace ``t``."""
+    vec12, scalar, zero, half = t.vec12, t.scalar, t.zero, t.half
+    Model, Scratch = t.structs.Model, t.structs.Scratch
+    affine, mass_times, ortho_energy = t.affine, t.mass_times, t.ortho_energy
+    joint_energy = t.joint_energy
+
+    @wp.func
+    def incremental_potential(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
+                              env: int, kinetic_scale: scalar):
+        """E(q) of environment ``env`` against scratch.q_tilde [J·s²]."""
+        energy = zero
+        dt2 = model.dt * model.dt
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            x = q[env, b] - scratch.q_tilde[env, b]
+            energy += half * kinetic_scale * wp.dot(
+                x, mass_times(model.body_mass[b], model.body_second_moment[b], x))
+            energy += dt2 * model.body_ortho_coeff[b] * ortho_energy(affine(q[env, b]))
+        for k in range(model.joint_parent.shape[0]):
+            if model.joint_has_free[k] != 0:
+                energy += joint_energy(model, q, env, k)
+        return energy
+
+    return SimpleNamespace(incremental_potential=incremental_potential)

@@ -1,0 +1,32 @@
+"""The scalar and matrix types of one precision, and its constants, for the stage builders.
+
+Each stage module (affine, ortho, joints, ...) has a ``build(t)`` that closes its Warp
+functions over the namespace ``t`` made here, so float64 and float32 each get their own
+functions and their own kernel module (``step.build`` uses ``module="unique"``): building one
+precision never changes the other's module hash, so neither recompiles the other.
+"""
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import warp as wp
+
+__all__ = ['types_for']
+
+
+def types_for(scalar) -> SimpleNamespace:
+    """Types and constants for ``scalar`` (wp.float64 or wp.float32)."""
+    # Constants are computed here, in Python: a quotient written inside a kernel is evaluated in
+    # float32 even when cast to float64 (Warp 1.19), which made BDF2's 4/3 − 1/3 = 1 + 3e-8.
+    return SimpleNamespace(
+        name=scalar.__name__, scalar=scalar,
+        numpy_scalar=np.float64 if scalar is wp.float64 else np.float32,
+        vec3=wp.types.vector(length=3, dtype=scalar),
+        mat33=wp.types.matrix(shape=(3, 3), dtype=scalar),
+        vec12=wp.types.vector(length=12, dtype=scalar),
+        mat12=wp.types.matrix(shape=(12, 12), dtype=scalar),
+        zero=scalar(0.0), half=scalar(0.5), one=scalar(1.0), two=scalar(2.0),
+        three=scalar(3.0), four=scalar(4.0),
+        pi=scalar(math.pi), two_pi=scalar(2.0 * math.pi),
+        inv_sqrt2=scalar(1.0 / math.sqrt(2.0)))

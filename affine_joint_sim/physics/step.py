@@ -1,0 +1,36 @@
+"""The step kernel: one launch advances every environment by one dt (design.md §8).
+
+One thread per environment: prediction, explicit commands, Newton with line search, then
+commit or reject and the statistics. No host sync inside a step. The kernel gets a Warp
+module of its own per precision (``module="unique"``).
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """The step kernel for the types namespace ``t``."""
+    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
+                                      t.structs.Scratch)
+    integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
+    newton, finish, largest_gap, write_stats = t.newton, t.finish, t.largest_gap, t.write_stats
+
+    @wp.kernel(module='unique')
+    def step(model: Model, state: State, control: Control, scratch: Scratch):
+        env = wp.tid()
+        bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env)
+        predict(model, state, scratch, env, bdf2, force_scale)
+        dropped = apply_commands(model, state, control, scratch, env, force_scale)
+        iterations, halvings, failures, converged, residual = newton(
+            model, state.q, scratch, env, kinetic_scale)
+        finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
+        if finite == 0:
+            converged = 0
+        write_stats(state, env, iterations, halvings, converged, failures, aliased, dropped,
+                    finite, rejected, residual, largest_gap(model, state, env))
+
+    return SimpleNamespace(step=step)

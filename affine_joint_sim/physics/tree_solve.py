@@ -1,0 +1,101 @@
+"""Newton system solve: block-tree Cholesky, leaves first, O(bodies) (design.md §8).
+
+The free bodies joined by joints form a forest; eliminating them in ``model.elim_order``
+(every body before its tree parent) factors H without fill-in: 12×12 blocks only.
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of the tree solve for the types namespace ``t``."""
+    vec12, mat12, scalar = t.vec12, t.mat12, t.scalar
+    Model, Scratch = t.structs.Model, t.structs.Scratch
+
+    @wp.func
+    def cholesky(a: mat12):
+        """Lower factor L of a symmetric positive definite 12×12 matrix (a = L Lᵀ)."""
+        low = mat12()
+        for j in range(12):
+            s = a[j, j]
+            for k in range(j):
+                s -= low[j, k] * low[j, k]
+            d = wp.sqrt(wp.max(s, a[j, j] * scalar(1.0e-14)))
+            low[j, j] = d
+            for i in range(j + 1, 12):
+                r = a[i, j]
+                for k in range(j):
+                    r -= low[i, k] * low[j, k]
+                low[i, j] = r / d
+        return low
+
+    @wp.func
+    def forward_solve(low: mat12, b: vec12):
+        """y = L⁻¹ b."""
+        y = vec12()
+        for i in range(12):
+            r = b[i]
+            for k in range(i):
+                r -= low[i, k] * y[k]
+            y[i] = r / low[i, i]
+        return y
+
+    @wp.func
+    def backward_solve(low: mat12, y: vec12):
+        """x = L⁻ᵀ y."""
+        x = vec12()
+        for ii in range(12):
+            i = 11 - ii
+            r = y[i]
+            for k in range(i + 1, 12):
+                r -= low[k, i] * x[k]
+            x[i] = r / low[i, i]
+        return x
+
+    @wp.func
+    def forward_solve_matrix(low: mat12, b: mat12):
+        """W = L⁻¹ B."""
+        w = mat12()
+        for c in range(12):
+            for i in range(12):
+                r = b[i, c]
+                for k in range(i):
+                    r -= low[i, k] * w[k, c]
+                w[i, c] = r / low[i, i]
+        return w
+
+    @wp.func
+    def solve_tree(model: Model, scratch: Scratch, env: int):
+        """Solve H dq = rhs into scratch.dq from the blocks scratch.hessian (diagonal) and
+        model.elim_offdiag (coupling to the tree parent)."""
+        n_free = model.elim_order.shape[0]
+        for k in range(n_free):
+            b = model.elim_order[k]
+            scratch.factor[env, b] = scratch.hessian[env, b]
+            scratch.forward[env, b] = scratch.rhs[env, b]
+        for k in range(n_free):
+            b = model.elim_order[k]
+            low = cholesky(scratch.factor[env, b])
+            scratch.factor[env, b] = low
+            y = forward_solve(low, scratch.forward[env, b])
+            scratch.forward[env, b] = y
+            p = model.elim_parent[b]
+            if p >= 0:
+                w = forward_solve_matrix(low, model.elim_offdiag[b])
+                scratch.coupling[env, b] = w
+                scratch.factor[env, p] = scratch.factor[env, p] - wp.transpose(w) @ w
+                scratch.forward[env, p] = scratch.forward[env, p] - wp.transpose(w) @ y
+        for kk in range(n_free):
+            b = model.elim_order[n_free - 1 - kk]
+            r = scratch.forward[env, b]
+            p = model.elim_parent[b]
+            if p >= 0:
+                r = r - scratch.coupling[env, b] @ scratch.dq[env, p]
+            scratch.dq[env, b] = backward_solve(scratch.factor[env, b], r)
+
+    return SimpleNamespace(cholesky=cholesky, forward_solve=forward_solve,
+                           backward_solve=backward_solve, solve_tree=solve_tree)
