@@ -13,7 +13,8 @@ from typing import Annotated, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-__all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Shape', 'Solver', 'Orientation']
+__all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Limit', 'Drive', 'Shape', 'Solver',
+           'Orientation']
 
 NAME_PATTERN = r'^[A-Za-z_][A-Za-z0-9_]*$'
 
@@ -102,33 +103,83 @@ class Body(_Strict):
         return self
 
 
+class Limit(_Strict):
+    """Joint limit (UID 670 revolute [rad], UID 669 prismatic [m]) on the reported coordinate:
+    a cubic penalty inside the implicit step, s((x−u)/(u−l))³ above u, s((l−x)/(u−l))³ below l
+    (s|x−l|³ when u = l); its physical stiffness scales with 1/dt² like the joint's."""
+
+    lower: float
+    upper: float
+    strength: PositiveFloat = 1.0e3
+
+    @model_validator(mode='after')
+    def _ordered(self):
+        if self.lower > self.upper:
+            raise ValueError(f'lower ({self.lower:g}) must be <= upper ({self.upper:g})')
+        return self
+
+
+class Drive(_Strict):
+    """Position drive (UID 19 revolute; its prismatic analogue): a spring K/2 (x − target)²
+    inside the implicit step, K = strength_ratio (m_P + m_C) (physical stiffness K/dt²)."""
+
+    target: float = 0.0
+    strength_ratio: PositiveFloat = 100.0
+    enabled: bool = True
+
+
 class Joint(_Strict):
-    """A revolute joint (UID 18) with its scalar external torque (UID 668)."""
+    """A joint: ``revolute`` (UID 18, torque UID 668), ``prismatic`` (UID 20, force UID 667)
+    or ``fixed`` (UID 25). ``torque`` is N·m for revolute and N for prismatic joints."""
 
     name: Annotated[str, Field(pattern=NAME_PATTERN)]
-    type: Literal['revolute'] = 'revolute'
+    type: Literal['revolute', 'prismatic', 'fixed'] = 'revolute'
     parent: str
     child: str
-    x0: Vec3
-    x1: Vec3
+    x0: Vec3 | None = None
+    x1: Vec3 | None = None
     strength_ratio: PositiveFloat = 100.0
     torque: float = 0.0
     enabled: bool = True
     torque_model: Literal['lever_arm', 'generalized'] = 'lever_arm'
     angle_mode: Literal['wrapped', 'continuous'] = 'wrapped'
     effort_limit: Annotated[float, Field(gt=0.0, allow_inf_nan=True)] = math.inf
+    limit: Limit | None = None
+    damping: Annotated[float, Field(ge=0.0)] = 0.0
+    drive: Drive | None = None
 
     @model_validator(mode='after')
-    def _finite_limit(self):
+    def _keys_of_type(self):
         if math.isnan(self.effort_limit):
             raise ValueError('effort_limit must be a positive number or .inf, not NaN')
+        # keys set away from their defaults (a dumped scene repeats the defaults)
+        given = {key for key in self.model_fields_set
+                 if getattr(self, key) != type(self).model_fields[key].default}
+        if self.type == 'fixed':
+            extra = sorted(given & _MOVABLE_KEYS)
+            if extra:
+                raise ValueError(f'a fixed joint welds its bodies: it takes no {", ".join(extra)}'
+                                 ' (its weld frame is the midpoint of the two body centres)')
+            return self
+        missing = [key for key in ('x0', 'x1') if getattr(self, key) is None]
+        if missing:
+            raise ValueError(f'a {self.type} joint needs {" and ".join(missing)} '
+                             '(two world points on its axis at t = 0)')
+        if self.type == 'prismatic':
+            extra = sorted(given & {'torque_model', 'angle_mode'})
+            if extra:
+                raise ValueError(f'{", ".join(extra)} applies to revolute joints only')
         return self
+
+
+_MOVABLE_KEYS = {'x0', 'x1', 'torque', 'enabled', 'torque_model', 'angle_mode', 'effort_limit',
+                 'limit', 'damping', 'drive'}
 
 
 class Solver(_Strict):
     """Speed/accuracy knobs (physics_spec preface §2, §7)."""
 
-    integrator: Literal['bdf1', 'bdf2'] = 'bdf1'
+    integrator: Literal['bdf1', 'bdf2'] = 'bdf2'
     newton_tol: PositiveFloat = 1.0e-4
     newton_max_iter: Annotated[int, Field(ge=1, le=1000)] = 32
     line_search: bool = True
@@ -205,7 +256,7 @@ class Scene(_Strict):
                                      f'unknown body {getattr(joint, key)!r}; valid: {valid}'))
             if joint.parent == joint.child:
                 problems.append((f'joints[{i}].child', 'parent and child must differ'))
-            if math.dist(joint.x0, joint.x1) < 1e-9:
+            if joint.x0 is not None and math.dist(joint.x0, joint.x1) < 1e-9:
                 problems.append((f'joints[{i}].x1', 'x1 must differ from x0 (the axis is x1 - x0)'))
         if not problems:
             problems += self._closed_loops()
@@ -226,7 +277,7 @@ class Scene(_Strict):
             if a == b:
                 loop = self._path_joints(joint.parent, joint.child, upto=i) + [joint.name]
                 return [(f'joints[{i}]', 'joints form a closed loop (' + ', '.join(loop) +
-                         '); only trees of revolute joints are supported')]
+                         '); only trees of joints are supported')]
             root[a] = b
         return []
 

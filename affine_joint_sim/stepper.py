@@ -97,13 +97,26 @@ class Stepper:
     def step_count(self) -> int:
         return self._steps
 
+    @property
+    def joint_types(self) -> list[str]:
+        """Each joint's type: 'revolute' (angles [rad], torques [N·m]), 'prismatic'
+        (distances [m], forces [N]) or 'fixed' (no coordinate, no command; reported as 0)."""
+        return [j.type for j in self.scene.joints]
+
+    @property
+    def command_joint_names(self) -> list[str]:
+        """The joints that take a torque or force command: every joint but fixed ones."""
+        return [j.name for j in self.scene.joints if j.type != 'fixed']
+
     def set_torque(self, name: str, value) -> None:
-        """Set joint ``name``'s external torque τ [N·m], held until changed.
+        """Set joint ``name``'s external torque τ [N·m] (force [N] for a prismatic joint),
+        held until changed.
 
         ``value`` is a scalar (every environment) or an array of shape (num_envs,). Values
-        above the joint's effort_limit are clamped with a warning; NaN/Inf raise ValueError.
+        above the joint's effort_limit are clamped with a warning; NaN/Inf raise ValueError,
+        and so does a fixed joint, which takes no command.
         """
-        k = self.scene.joint_index(name)
+        k = self._movable(name)
         limit = self._effort_limit[k]
         if isinstance(value, (int, float)):   # one command per message: no NumPy (1 µs, not 17)
             tau = value
@@ -121,8 +134,28 @@ class Stepper:
 
     def set_enabled(self, name: str, enabled) -> None:
         """Enable (True) or disable joint ``name``'s torque (external_torque/is_constrained)."""
-        k = self.scene.joint_index(name)
+        k = self._movable(name)
         self._enabled[:, k] = self._per_env(name, enabled, np.bool_)
+
+    def set_target(self, name: str, value) -> None:
+        """Set the drive target of joint ``name`` [rad | m], acting from the next step.
+
+        ``value`` is a scalar or an array of shape (num_envs,); NaN/Inf raise ValueError, and
+        so does a joint without a ``drive``."""
+        k = self.scene.joint_index(name)
+        if self.scene.joints[k].drive is None:
+            with_drive = [j.name for j in self.scene.joints if j.drive is not None]
+            raise ValueError(f'joint {name!r} has no drive; joints with one: '
+                             f'{", ".join(with_drive) or "none"}')
+        target = self._per_env(name, value, np.float64)
+        if not np.all(np.isfinite(target)):
+            raise ValueError(f'joint {name!r}: target must be finite, got {value!r}')
+        self._target[:, k] = target
+
+    def set_drive_enabled(self, name: str, enabled) -> None:
+        """Switch joint ``name``'s drive on (True) or off (driving/is_constrained)."""
+        k = self.scene.joint_index(name)
+        self._drive_enabled[:, k] = self._per_env(name, enabled, np.bool_)
 
     def step(self) -> None:
         """Advance every environment by one dt.
@@ -144,36 +177,48 @@ class Stepper:
                              (self._state.v_prev, v0)):
             array.assign(np.ascontiguousarray(value))
         for array in (self._state.history_ready, self._state.joint_coordinate,
+                      self._state.joint_coordinate_prev, self._control.joint_target,
+                      self._control.joint_drive_enabled,
                       self._state.joint_position, self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float):
             array.zero_()
         self._warned = set()
-        for joint in self.scene.joints:
-            self.set_torque(joint.name, joint.torque)
-            self.set_enabled(joint.name, joint.enabled)
+        for k, joint in enumerate(self.scene.joints):
+            if joint.type != 'fixed':
+                self.set_torque(joint.name, joint.torque)
+                self.set_enabled(joint.name, joint.enabled)
+            if joint.drive is not None:
+                self._target[:, k] = joint.drive.target
+                self._drive_enabled[:, k] = joint.drive.enabled
         if self._mirror_outputs:
             self._download()
         self._steps = 0
 
     @property
     def angles(self) -> np.ndarray:
-        """Joint angles [rad] per joint's angle_mode, shape (n_joints,) or (num_envs, n_joints)."""
+        """Joint coordinates: revolute angles [rad] per angle_mode, prismatic distances [m]
+        (0 at t = 0), 0 for fixed joints; shape (n_joints,) or (num_envs, n_joints)."""
         return self._out(self._angle)
 
     @property
     def velocities(self) -> np.ndarray:
-        """Joint angular velocities Δθ/dt [rad/s]."""
+        """Joint velocities Δx/dt [rad/s | m/s]."""
         return self._out(self._velocity)
 
     @property
     def efforts(self) -> np.ndarray:
-        """Torque applied in the last step [N·m] (0 for a disabled joint)."""
+        """Torque [N·m] or force [N] applied in the last step (0 if disabled or fixed)."""
         return self._out(self._effort)
 
     @property
     def torques(self) -> np.ndarray:
-        """Commanded torques [N·m] after effort_limit clamping."""
+        """Commanded torques [N·m] / forces [N] after effort_limit clamping."""
         return self._out(self._torque)
+
+    @property
+    def targets(self) -> np.ndarray:
+        """Drive targets [rad | m] (0 for joints without a drive)."""
+        return self._out(self._target)
 
     @property
     def enabled(self) -> np.ndarray:
@@ -205,7 +250,7 @@ class Stepper:
         """Mechanical energy [J]: kinetic + gravity + orthogonality + joint springs (per env).
 
         BDF steps dissipate it; a passive system must not gain it (physics.energy)."""
-        energy = mechanical_energy(self._host, self._q, self._qdot)
+        energy = mechanical_energy(self._host, self._q, self._qdot, self._coordinate)
         return energy if self._batched else float(energy[0])
 
     @property
@@ -240,9 +285,10 @@ class Stepper:
 
         # Host views: on CPU the device arrays themselves; on CUDA pinned mirrors that the
         # captured graph uploads (commands) before and downloads (outputs) after the kernel.
-        inputs = (control.joint_torque, control.joint_enabled)
+        inputs = (control.joint_torque, control.joint_enabled, control.joint_target,
+                  control.joint_drive_enabled)
         outputs = (state.joint_position, state.joint_velocity, state.joint_effort,
-                   state.stats_int, state.stats_float, state.q, state.v)
+                   state.stats_int, state.stats_float, state.q, state.v, state.joint_coordinate)
         if self.device.is_cpu:
             self._mirror_inputs, self._mirror_outputs = [], []
             host_in, host_out = inputs, outputs
@@ -251,9 +297,10 @@ class Stepper:
             host_out = [wp.empty_like(a, device='cpu', pinned=True) for a in outputs]
             self._mirror_inputs = list(zip(inputs, host_in))
             self._mirror_outputs = list(zip(outputs, host_out))
-        self._torque, self._enabled = (a.numpy() for a in host_in)
+        self._torque, self._enabled, self._target, self._drive_enabled = (
+            a.numpy() for a in host_in)
         (self._angle, self._velocity, self._effort, self._stats_int, self._stats_float,
-         self._q, self._qdot) = (a.numpy() for a in host_out)
+         self._q, self._qdot, self._coordinate) = (a.numpy() for a in host_out)
         self._warned = set()
         self._all_clear = np.tile(_ALL_CLEAR, (n, 1)).tobytes()
 
@@ -291,6 +338,12 @@ class Stepper:
                         max_iter=self.scene.solver.newton_max_iter,
                         residual=float(self._stats_float[:, 0].max())),
                     SimulationWarning, stacklevel=3)
+
+    def _movable(self, name) -> int:
+        k = self.scene.joint_index(name)
+        if self.scene.joints[k].type == 'fixed':
+            raise ValueError(f'joint {name!r} is fixed: it takes no torque or force')
+        return k
 
     def _per_env(self, name, value, dtype) -> np.ndarray:
         array = np.asarray(value)

@@ -43,7 +43,8 @@ def test_defaults_and_exponent_without_sign():
     assert (joint.strength_ratio, joint.torque_model, joint.angle_mode, joint.enabled) == (
         100.0, 'lever_arm', 'wrapped', True)
     assert joint.effort_limit == math.inf
-    assert scene.solver.integrator == 'bdf1' and scene.solver.newton_tol == 1e-4
+    assert scene.solver.integrator == 'bdf2' and scene.solver.newton_tol == 1e-4
+    assert (joint.type, joint.limit, joint.drive, joint.damping) == ('revolute', None, None, 0.0)
 
 
 @pytest.mark.parametrize('edit, path, hint', [
@@ -65,11 +66,45 @@ def test_defaults_and_exponent_without_sign():
     (('name: test', 'name: test\nsolver: {integrator: rk4}'), 'solver.integrator', "'bdf2'"),
     (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], torque_model: magic}'), 'joints[0].torque_model',
      "'generalized'"),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], type: ball}'), 'joints[0].type', "'prismatic'"),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], limit: {lower: 1, upper: -1}}'), 'joints[0].limit',
+     'must be <= upper'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], limit: {lower: 0, upper: 1, strength: 0}}'),
+     'joints[0].limit.strength', 'greater than 0'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], limit: {lower: .nan, upper: 1}}'),
+     'joints[0].limit.lower', 'finite'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], damping: -1}'), 'joints[0].damping',
+     'greater than or equal to 0'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], drive: {strength_ratio: -1}}'),
+     'joints[0].drive.strength_ratio', 'greater than 0'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], drive: {target: 1, gain: 2}}'),
+     'joints[0].drive.gain', 'valid keys here: target, strength_ratio, enabled'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], type: fixed}'), 'joints[0]',
+     'it takes no x0, x1'),
+    (('x0: [-0.05, 0, 0], x1: [0.05, 0, 0]}', 'type: fixed, torque: 1.0}'), 'joints[0]',
+     'it takes no torque'),
+    (('x0: [-0.05, 0, 0], x1: [0.05, 0, 0]}', 'type: fixed, drive: {}}'), 'joints[0]',
+     'it takes no drive'),
+    (('x0: [-0.05, 0, 0], ', 'type: prismatic, '), 'joints[0]', 'needs x0'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], type: prismatic, angle_mode: continuous}'),
+     'joints[0]', 'angle_mode applies to revolute joints only'),
 ])
 def test_invalid_scenes_name_file_key_path_and_valid_values(edit, path, hint):
     message = error_of(BASE.replace(*edit))
     assert message.startswith('scene.yaml: invalid scene')
     assert f'  {path}: ' in message and hint in message, message
+
+
+def test_joint_types_round_trip_through_yaml():
+    text = BASE.replace('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], limit: {lower: -1, upper: 2}, '
+                        'damping: 0.5, drive: {target: 0.3}}')
+    text += '  - {name: weld, type: fixed, parent: link, child: tip}\n'
+    text = text.replace('joints:', '  - {name: tip, shape: {sphere: {radius: 0.1}}, mass: 1.0, '
+                        'position: [0, 0, -1.1]}\njoints:')
+    scene = load(text)
+    assert scene.joints[0].limit.strength == 1.0e3 and scene.joints[0].drive.enabled
+    assert scene.joints[1].x0 is None
+    assert Scene.from_yaml_text(scene.to_yaml()) == scene
 
 
 def test_closed_loop_is_rejected_with_its_joints():

@@ -1,7 +1,10 @@
 """Newton system of one environment: −∇E into scratch.rhs, diagonal blocks into scratch.hessian.
 
 The diagonal blocks are kinetic_scale·M + dt² κ v̄ ∇²‖AAᵀ−I‖² (PSD-projected) + the joints'
-constant blocks; the coupling blocks of the tree are constant (model.elim_offdiag).
+constant blocks. The coupling blocks of the tree are constant (model.elim_offdiag) unless the
+model has state_coupling: then they and the diagonal get each iteration the state-dependent
+Gauss–Newton blocks of prismatic axes and of limit, drive and damping terms, per environment
+(scratch.offdiag). Scenes without such terms pay nothing for them.
 """
 
 from types import SimpleNamespace
@@ -13,16 +16,54 @@ __all__ = ['build']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the assembly for the types namespace ``t``."""
-    vec12, scalar = t.vec12, t.scalar
-    Model, Scratch = t.structs.Model, t.structs.Scratch
+    vec12, mat12, scalar = t.vec12, t.mat12, t.scalar
+    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
+                                      t.structs.Scratch)
     affine, mass_times, add_mass = t.affine, t.mass_times, t.add_mass
     ortho_gradient, ortho_hessian_psd = t.ortho_gradient, t.ortho_hessian_psd
-    joint_gradients = t.joint_gradients
+    joint_gradients, joint_state_blocks = t.joint_gradients, t.joint_state_blocks
+    joint_coordinate, joint_coordinate_gradients = (t.joint_coordinate,
+                                                    t.joint_coordinate_gradients)
+    coordinate_terms = t.coordinate_terms
 
     @wp.func
-    def assemble(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-                 kinetic_scale: scalar):
-        """rhs = −∇E(q) and hessian = the diagonal blocks of ∇²E(q) of the free bodies."""
+    def add_state_blocks(model: Model, state: State, control: Control,
+                         q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int,
+                         bdf2: int):
+        """Joint k's coordinate-term gradient into rhs and its state-dependent blocks into
+        hessian and offdiag."""
+        h_pp, h_pc, h_cc = joint_state_blocks(model, q, env, k)
+        g_parent = vec12()
+        g_child = vec12()
+        if model.joint_state_terms[k] != 0:
+            e, d1, d2 = coordinate_terms(model, state, control, env, k,
+                                         joint_coordinate(model, q, state, env, k), bdf2)
+            x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
+            g_parent = d1 * x_parent
+            g_child = d1 * x_child
+            h_pp += d2 * wp.outer(x_parent, x_parent)
+            h_pc += d2 * wp.outer(x_parent, x_child)
+            h_cc += d2 * wp.outer(x_child, x_child)
+        bp = model.joint_parent[k]
+        bc = model.joint_child[k]
+        if model.body_fixed[bp] == 0:
+            scratch.rhs[env, bp] -= g_parent
+            scratch.hessian[env, bp] += h_pp
+        if model.body_fixed[bc] == 0:
+            scratch.rhs[env, bc] -= g_child
+            scratch.hessian[env, bc] += h_cc
+        slot = model.joint_offdiag_body[k]
+        if slot >= 0:
+            if model.joint_offdiag_child[k] != 0:
+                scratch.offdiag[env, slot] += wp.transpose(h_pc)
+            else:
+                scratch.offdiag[env, slot] += h_pc
+
+    @wp.func
+    def assemble(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
+                 scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int):
+        """rhs = −∇E(q), hessian = the diagonal blocks of ∇²E(q) of the free bodies (and
+        offdiag = their coupling blocks when the model has state_coupling)."""
         dt2 = model.dt * model.dt
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
@@ -36,6 +77,8 @@ def build(t) -> SimpleNamespace:
                                     + ortho * ortho_gradient(a))
             scratch.hessian[env, b] = add_mass(
                 model.body_joint_hessian[b] + ortho * ortho_hessian_psd(a), m, s, kinetic_scale)
+            if model.state_coupling != 0:
+                scratch.offdiag[env, b] = model.elim_offdiag[b]
         for k in range(model.joint_parent.shape[0]):
             if model.joint_has_free[k] == 0:
                 continue
@@ -46,5 +89,7 @@ def build(t) -> SimpleNamespace:
                 scratch.rhs[env, bp] -= g_parent
             if model.body_fixed[bc] == 0:
                 scratch.rhs[env, bc] -= g_child
+            if model.state_coupling != 0:
+                add_state_blocks(model, state, control, q, scratch, env, k, bdf2)
 
     return SimpleNamespace(assemble=assemble)

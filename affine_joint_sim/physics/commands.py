@@ -8,6 +8,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.codes import FIXED
+
 __all__ = ['build']
 
 
@@ -21,13 +23,14 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def apply_commands(model: Model, state: State, control: Control, scratch: Scratch,
                        env: int, scale: scalar):
-        """Add scale·a_ext of every enabled joint's command to q̃; write efforts [N·m].
+        """Add scale·a_ext of every enabled joint's command to q̃; write efforts [N·m | N]
+        (0 for disabled and fixed joints).
 
         Returns 1 if a near-singular body dropped a command."""
         dropped = int(0)
         for k in range(model.joint_parent.shape[0]):
             tau = control.joint_torque[env, k]
-            if control.joint_enabled[env, k] == 0:
+            if control.joint_enabled[env, k] == 0 or model.joint_type[k] == FIXED:
                 state.joint_effort[env, k] = zero
                 continue
             state.joint_effort[env, k] = tau

@@ -11,7 +11,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import BDF2, CONTINUOUS
+from affine_joint_sim.physics.codes import BDF2, CONTINUOUS, REVOLUTE
 from affine_joint_sim.physics.fields import STAT_FLOAT_NAMES, STAT_INT_NAMES
 
 __all__ = ['build']
@@ -69,13 +69,14 @@ def build(t) -> SimpleNamespace:
         for k in range(model.joint_parent.shape[0]):
             step = joint_coordinate_step(model, state.q, env, k,
                                          state.joint_coordinate[env, k])
-            if wp.abs(step) > alias_limit:
+            if model.joint_type[k] == REVOLUTE and wp.abs(step) > alias_limit:
                 aliased = 1
         return aliased
 
     @wp.func
     def commit(model: Model, state: State, scratch: Scratch, env: int):
-        """Accept the step: velocities and history (§3.6, §3.7), joint coordinates."""
+        """Accept the step: velocities and history (§3.6, §3.7), joint coordinates (a wrapped
+        angle is reported for revolute joints in WRAPPED mode, the coordinate otherwise)."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             state.q_prev[env, b] = scratch.q_n[env, b]
@@ -86,6 +87,7 @@ def build(t) -> SimpleNamespace:
         for k in range(model.joint_parent.shape[0]):
             previous = state.joint_coordinate[env, k]
             delta = joint_coordinate_step(model, state.q, env, k, previous)
+            state.joint_coordinate_prev[env, k] = previous
             state.joint_coordinate[env, k] = previous + delta
             state.joint_velocity[env, k] = delta / model.dt
             if model.joint_angle_mode[k] == CONTINUOUS:

@@ -1,29 +1,32 @@
 """Mechanical energy of an ABD state: the quantity a passive system must not gain.
 
 The incremental potential of physics_spec §3.3 is ½‖q − q̃‖²_M + dt²·V(q), so the physical
-potential V is the orthogonality energy κ v̄ ‖AAᵀ − I‖² plus each joint's spring
-K/(2 dt²)·(|d0|² + |d1|²) (the joint term carries no dt² there). With gravity's potential and
+potential V is the orthogonality energy κ v̄ ‖AAᵀ − I‖² plus each joint's constraint spring
+and limit penalty divided by dt² (those terms carry no dt² there). With gravity's potential and
 the affine kinetic energy ½ q̇ᵀ M q̇ this is the energy that implicit BDF steps dissipate.
 NumPy, host side, world frame, SI units.
 """
 
 import numpy as np
 
-from affine_joint_sim.physics.model import HostModel, jacobian
+from affine_joint_sim.physics.codes import PRISMATIC
+from affine_joint_sim.physics.model import HostModel, direction_jacobian, jacobian, linear_pairs
 
 __all__ = ['mechanical_energy']
 
 
-def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
-    """Kinetic + gravity + orthogonality + joint-spring energy of the free bodies [J].
+def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,
+                      coordinates: np.ndarray) -> np.ndarray:
+    """Kinetic + gravity + orthogonality + joint-spring + limit energy of the free bodies [J].
 
     Args:
         model: the scene's host model.
         q, qdot: ABD states and velocities, shape (..., n_bodies, 12) (leading env axes allowed).
+        coordinates: the joints' multi-turn coordinates x [rad | m], shape (..., n_joints).
 
     Returns:
         Energy per leading index, shape (...). Fixed bodies and joints between two fixed bodies
-        add constants and are left out.
+        add constants and are left out; drives (which do work) and damping are not included.
     """
     free = model.body_fixed == 0
     s = model.body_second_moment[:, None, :]                     # S = diag(s): (nb, 1, 3)
@@ -38,12 +41,26 @@ def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray) -> np.n
 
     joints = np.zeros(bodies.shape)
     for k in np.flatnonzero(model.joint_has_free):
-        u0, u1 = model.joint_parent_point0[k], model.joint_parent_point1[k]
-        w0, w1 = model.joint_child_point0[k], model.joint_child_point1[k]
         qp, qc = q[..., model.joint_parent[k], :], q[..., model.joint_child[k], :]
-        d0 = qp @ jacobian(u0).T - qc @ jacobian(w0).T          # x_P(u0) − x_C(w0)
-        d1 = qp @ jacobian(u1).T - qc @ jacobian(w1).T
-        joints += (0.5 * model.joint_stiffness[k] / model.dt ** 2
-                   * (np.sum(d0 ** 2, axis=-1) + np.sum(d1 ** 2, axis=-1)))
+        residuals = [qp @ jp.T - qc @ jc.T for jp, jc in linear_pairs(vars(model), k)]
+        if model.joint_type[k] == PRISMATIC:
+            delta = (qc @ jacobian(model.joint_child_point0[k]).T
+                     - qp @ jacobian(model.joint_parent_point0[k]).T)
+            for side, qk in (('parent', qp), ('child', qc)):
+                axis = qk @ direction_jacobian(getattr(model, f'joint_{side}_axis')[k]).T
+                residuals.append(np.cross(delta, axis))
+        spring = 0.5 * model.joint_stiffness[k] * sum(np.sum(r ** 2, axis=-1) for r in residuals)
+        joints += (spring + _limit_energy(model, k, coordinates[..., k])) / model.dt ** 2
     return bodies + joints
 
+
+def _limit_energy(model: HostModel, k: int, x: np.ndarray) -> np.ndarray:
+    """The cubic limit penalty of joint k at coordinates x (physics.joint_terms) [J·s²]."""
+    s, lower, upper = (model.joint_limit_strength[k], model.joint_limit_lower[k],
+                       model.joint_limit_upper[k])
+    if s == 0.0:
+        return np.zeros(np.shape(x))
+    if upper == lower:
+        return s * np.abs(x - lower) ** 3
+    width = upper - lower
+    return s * (np.maximum(x - upper, 0.0) ** 3 + np.maximum(lower - x, 0.0) ** 3) / width ** 3

@@ -22,19 +22,22 @@ def _probe_kernels(t):
     """Kernels launching single stages for the types namespace ``t`` (built once)."""
     if t.name in _PROBES:
         return _PROBES[t.name]
-    Model, Scratch, vec12, scalar = t.structs.Model, t.structs.Scratch, t.vec12, t.scalar
+    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
+                                      t.structs.Scratch)
+    vec12, scalar = t.vec12, t.scalar
     incremental_potential, assemble, solve_tree = (t.incremental_potential, t.assemble,
                                                    t.solve_tree)
     one = t.one
 
     @wp.kernel(module='unique')
-    def energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
-               out: wp.array(dtype=scalar)):
-        out[0] = incremental_potential(model, q, scratch, 0, one)
+    def energy(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
+               scratch: Scratch, out: wp.array(dtype=scalar)):
+        out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
 
     @wp.kernel(module='unique')
-    def newton_system(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch):
-        assemble(model, q, scratch, 0, one)
+    def newton_system(model: Model, state: State, control: Control,
+                      q: wp.array2d(dtype=vec12), scratch: Scratch):
+        assemble(model, state, control, q, scratch, 0, one, 0)
         solve_tree(model, scratch, 0)
 
     _PROBES[t.name] = (energy, newton_system)
@@ -49,32 +52,48 @@ class Stages:
         self.t = step_kernels(scalar_of(scene.solver.precision))
         self.device = device
         nb = self.host.body_count
-        sizes = {'env': 1, 'body': nb, 'joint': self.host.joint_count}
+        sizes = {'env': 1, 'body': nb, 'joint': self.host.joint_count, 'stat_int': 1,
+                 'stat_float': 1}
         self.model = device_model(self.t, self.t.structs.Model, self.host, device)
-        self.scratch = allocate(self.t, self.t.structs.Scratch, 'scratch', sizes, device)
+        self.state, self.control, self.scratch = (
+            allocate(self.t, getattr(self.t.structs, group.capitalize()), group, sizes, device)
+            for group in ('state', 'control', 'scratch'))
         self.free = [b for b in range(nb) if not self.host.body_fixed[b]]
         self._q = wp.zeros((1, nb), dtype=self.t.vec12, device=device)
         self._out = wp.zeros(1, dtype=self.t.scalar, device=device)
         self._energy, self._newton_system = _probe_kernels(self.t)
+
+    def set_joint_inputs(self, coordinate=None, coordinate_prev=None, target=None,
+                         drive_enabled=None):
+        """Per-joint inputs of the coordinate terms: the last committed coordinates x_n and
+        x_{n−1} [rad | m], drive targets and drive switches (each (n_joints,), default 0)."""
+        for array, value in ((self.state.joint_coordinate, coordinate),
+                             (self.state.joint_coordinate_prev, coordinate_prev),
+                             (self.control.joint_target, target),
+                             (self.control.joint_drive_enabled, drive_enabled)):
+            if value is not None:
+                array.assign(np.asarray(value, dtype=array.numpy().dtype)[None])
 
     def _load(self, q, q_tilde):
         self._q.assign(np.asarray(q)[None])
         self.scratch.q_tilde.assign(np.asarray(q_tilde)[None])
 
     def energy(self, q, q_tilde) -> float:
-        """E(q) against the prediction q_tilde (BDF1 kinetic scale) [J·s²]."""
+        """E(q) against the prediction q_tilde (BDF1 scales) [J·s²]."""
         self._load(q, q_tilde)
-        wp.launch(self._energy, dim=1, inputs=[self.model, self._q, self.scratch, self._out],
-                  device=self.device)
+        wp.launch(self._energy, dim=1, inputs=[self.model, self.state, self.control, self._q,
+                                               self.scratch, self._out], device=self.device)
         return float(self._out.numpy()[0])
 
     def newton_system(self, q, q_tilde):
         """(∇E, dense ∇²E as assembled (PSD-projected), tree-solve direction dq) over the
         free DOFs at q."""
         self._load(q, q_tilde)
-        wp.launch(self._newton_system, dim=1, inputs=[self.model, self._q, self.scratch],
-                  device=self.device)
+        wp.launch(self._newton_system, dim=1, inputs=[self.model, self.state, self.control,
+                                                      self._q, self.scratch], device=self.device)
         rhs, blocks = self.scratch.rhs.numpy()[0], self.scratch.hessian.numpy()[0]
+        offdiag = (self.scratch.offdiag.numpy()[0] if self.host.state_coupling
+                   else self.host.elim_offdiag)
         dq = self.scratch.dq.numpy()[0]
         index = {b: i for i, b in enumerate(self.free)}
         hessian = np.zeros((12 * len(self.free),) * 2)
@@ -82,7 +101,7 @@ class Stages:
             hessian[12 * i:12 * i + 12, 12 * i:12 * i + 12] = blocks[b]
             p = self.host.elim_parent[b]
             if p >= 0:
-                j, off = index[p], self.host.elim_offdiag[b]
+                j, off = index[p], offdiag[b]
                 hessian[12 * i:12 * i + 12, 12 * j:12 * j + 12] = off
                 hessian[12 * j:12 * j + 12, 12 * i:12 * i + 12] = off.T
         gradient = -np.concatenate([rhs[b] for b in self.free])

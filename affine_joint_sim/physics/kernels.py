@@ -2,7 +2,7 @@
 
 ``step_kernels(scalar)`` builds, once per scalar type (wp.float64 or wp.float32), the types and
 structs of ``fields``, then each stage's Warp functions in pipeline order: affine kinematics,
-orthogonality, tree solve, joints, commands, incremental potential, assembly, prediction,
+orthogonality, tree solve, joints, joint terms, commands, incremental potential, assembly, prediction,
 Newton, commit and the step kernel. Every stage function is an attribute of the returned
 namespace, so tests can launch a stage on its own (``physics.evaluate``).
 """
@@ -11,14 +11,14 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics import (affine, assemble, commands, commit, joints, newton,
-                                      ortho, potential, prediction, step, tree_solve)
+from affine_joint_sim.physics import (affine, assemble, commands, commit, joint_terms, joints,
+                                      newton, ortho, potential, prediction, step, tree_solve)
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.precision import types_for
 
 __all__ = ['step_kernels', 'scalar_of']
 
-_STAGES = (affine, ortho, tree_solve, joints, commands, potential, assemble, prediction, newton,
+_STAGES = (affine, ortho, tree_solve, joints, joint_terms, commands, potential, assemble, prediction, newton,
            commit, step)
 _BUILT = {}
 

@@ -10,12 +10,14 @@ import warnings
 
 import numpy as np
 
-from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, GENERALIZED, JOINT_TYPES,
-                                            LEVER_ARM, WRAPPED)
+from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, FIXED, GENERALIZED,
+                                            JOINT_TYPES, LEVER_ARM, PRISMATIC, REVOLUTE,
+                                            WRAPPED)
 from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import mass_properties
 
-__all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'rotation_matrix']
+__all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'direction_jacobian',
+           'linear_pairs', 'rotation_matrix']
 
 
 class SimulationWarning(UserWarning):
@@ -110,34 +112,47 @@ def build_model(scene) -> HostModel:
         blocks = _constant_blocks(joints, k)
         joint_hessian[parent[k]] += blocks[0]
         joint_hessian[child[k]] += blocks[2]
-    elim_order, elim_parent, elim_offdiag = _elimination(scene, fixed, joints)
+    elim_order, elim_parent, elim_offdiag, offdiag_body, offdiag_child = _elimination(
+        scene, fixed, joints)
     _warn_com_on_axis(scene, fixed, joints)
 
     gravity = np.asarray(scene.gravity, dtype=np.float64)
     has_free = np.array([not (fixed[parent[k]] and fixed[child[k]]) for k in range(len(parent))],
                         dtype=np.int32)
     free = not fixed.all()
+    moving = has_free != 0
+    state_terms = moving & (joints['joint_state_terms'] != 0)
     active = [term for term, on in (
         ('inertia', free), ('orthogonality', free), ('gravity', free and gravity.any()),
-        ('joints', bool(has_free.any()))) if on]
+        ('joints', bool(moving.any())),
+        ('limits', bool((moving & (joints['joint_limit_strength'] > 0)).any())),
+        ('drives', bool((moving & (joints['joint_drive_stiffness'] > 0)).any())),
+        ('damping', bool((moving & (joints['joint_damping'] > 0)).any()))) if on]
+    state_coupling = bool((state_terms | (moving & (joints['joint_type'] == PRISMATIC))).any())
     values = dict(
         dt=scene.dt, gravity=gravity, has_gravity=int(np.any(gravity != 0.0)),
         integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,
         newton_tol=scene.solver.newton_tol, newton_max_iter=scene.solver.newton_max_iter,
-        line_search=int(scene.solver.line_search),
+        line_search=int(scene.solver.line_search), state_coupling=int(state_coupling),
         body_fixed=fixed, body_mass=mass,
         body_second_moment=np.array([p.second_moment for p in props]),
         body_ortho_coeff=np.array([b.kappa * p.volume for b, p in zip(scene.bodies, props)]),
         body_half_extent=np.array([p.half_extent for p in props]),
         body_joint_hessian=joint_hessian,
         elim_order=elim_order, elim_parent=elim_parent, elim_offdiag=elim_offdiag,
-        joint_has_free=has_free, **joints)
+        joint_has_free=has_free, joint_offdiag_body=offdiag_body,
+        joint_offdiag_child=offdiag_child, **joints)
     return HostModel(values, precision=scene.solver.precision, active_terms=active,
                      body_q0=q0, body_v0=v0)
 
 
 def _joint_arrays(scene, rotations, q0, mass) -> dict:
-    """Per-joint model fields: type, bodies, stiffness, rest points and frames per side."""
+    """Per-joint model fields: type, bodies, stiffness, rest points and frames per side, terms.
+
+    Revolute and prismatic joints take their axis t from x1 − x0 and points x0, x1 as given;
+    a fixed joint welds at the midpoint of its two body centres with world axes (libuipc's
+    frame). Rest copies: ū = R⁻¹(x − p) for points and R⁻¹ v for directions (R = A at t = 0).
+    """
     nj = len(scene.joints)
     out = {name: np.zeros((nj, 3)) for name in _SIDE_VECTORS}
     out['joint_type'] = np.array([JOINT_TYPES[j.type] for j in scene.joints], dtype=np.int32)
@@ -147,34 +162,74 @@ def _joint_arrays(scene, rotations, q0, mass) -> dict:
     out['joint_stiffness'] = np.array([j.strength_ratio * (mass[parent[k]] + mass[child[k]])
                                        for k, j in enumerate(scene.joints)])
     for k, joint in enumerate(scene.joints):
-        x0, x1 = np.asarray(joint.x0), np.asarray(joint.x1)
-        n, b = _joint_frame(x1 - x0)
+        if joint.type == 'fixed':
+            x0 = x1 = 0.5 * (q0[parent[k], :3] + q0[child[k], :3])
+            t, n, b = np.eye(3)
+        else:
+            x0, x1 = np.asarray(joint.x0), np.asarray(joint.x1)
+            t = (x1 - x0) / np.linalg.norm(x1 - x0)
+            n, b = _joint_frame(x1 - x0)
         for side, body in (('parent', parent[k]), ('child', child[k])):
             rot, p = rotations[body], q0[body, :3]
-            out[f'joint_{side}_point0'][k] = rot.T @ (x0 - p)   # rest point (A⁻¹ = Aᵀ at t = 0)
-            out[f'joint_{side}_point1'][k] = rot.T @ (x1 - p)
-            out[f'joint_{side}_normal'][k] = rot.T @ n
-            out[f'joint_{side}_binormal'][k] = rot.T @ b
+            for name, value in (('point0', x0 - p), ('point1', x1 - p), ('axis', t),
+                                ('normal', n), ('binormal', b)):
+                out[f'joint_{side}_{name}'][k] = rot.T @ value
     out['joint_torque_model'] = np.array(
         [LEVER_ARM if j.torque_model == 'lever_arm' else GENERALIZED for j in scene.joints],
         dtype=np.int32)
     out['joint_angle_mode'] = np.array(
-        [CONTINUOUS if j.angle_mode == 'continuous' else WRAPPED for j in scene.joints],
+        [CONTINUOUS if j.angle_mode == 'continuous' or j.type != 'revolute' else WRAPPED
+         for j in scene.joints], dtype=np.int32)
+    limits = [j.limit for j in scene.joints]
+    out['joint_limit_lower'] = np.array([lim.lower if lim else 0.0 for lim in limits])
+    out['joint_limit_upper'] = np.array([lim.upper if lim else 0.0 for lim in limits])
+    out['joint_limit_strength'] = np.array([lim.strength if lim else 0.0 for lim in limits])
+    out['joint_damping'] = np.array([j.damping for j in scene.joints])
+    out['joint_drive_stiffness'] = np.array(
+        [j.drive.strength_ratio * (mass[parent[k]] + mass[child[k]]) if j.drive else 0.0
+         for k, j in enumerate(scene.joints)])
+    out['joint_state_terms'] = np.array(
+        [j.limit is not None or j.drive is not None or j.damping > 0.0 for j in scene.joints],
         dtype=np.int32)
     return out
 
 
 _SIDE_VECTORS = [f'joint_{side}_{what}' for side in ('parent', 'child')
-                 for what in ('point0', 'point1', 'normal', 'binormal')]
+                 for what in ('point0', 'point1', 'axis', 'normal', 'binormal')]
+
+
+def direction_jacobian(u_bar) -> np.ndarray:
+    """J̊(ū), the 3×12 map from q to the world direction A ū (no translation part)."""
+    j = jacobian(u_bar)
+    j[:, :3] = 0.0
+    return j
+
+
+def linear_pairs(joints: dict, k: int) -> list:
+    """(J_P, J_C) of each residual J_P q_P − J_C q_C of joint k that is linear in q.
+
+    Revolute: its two anchor gaps; fixed: the weld-centre gap and the three axis differences;
+    prismatic: the normal and binormal differences (its axis terms are not linear)."""
+    def point(m):
+        return (jacobian(joints[f'joint_parent_point{m}'][k]),
+                jacobian(joints[f'joint_child_point{m}'][k]))
+
+    def direction(what):
+        return (direction_jacobian(joints[f'joint_parent_{what}'][k]),
+                direction_jacobian(joints[f'joint_child_{what}'][k]))
+
+    kind = joints['joint_type'][k]
+    if kind == REVOLUTE:
+        return [point(0), point(1)]
+    if kind == FIXED:
+        return [point(0), direction('axis'), direction('normal'), direction('binormal')]
+    return [direction('normal'), direction('binormal')]
 
 
 def _constant_blocks(joints: dict, k: int):
-    """(H_PP, H_PC, H_CC) of joint k's energy where it is linear in q (constant) [kg].
-
-    Revolute (physics_spec §4.4): K Σ_m J(ū_m)ᵀJ(ū_m), −K Σ_m J(ū_m)ᵀJ(w̄_m), K Σ_m J(w̄_m)ᵀJ(w̄_m)
-    over its two anchor pairs."""
-    pairs = [(jacobian(joints[f'joint_parent_point{m}'][k]),
-              jacobian(joints[f'joint_child_point{m}'][k])) for m in (0, 1)]
+    """(H_PP, H_PC, H_CC) of joint k's linear residuals, K Σ J_Pᵀ J_P, −K Σ J_Pᵀ J_C,
+    K Σ J_Cᵀ J_C (physics_spec §4.4) [kg]: constant, computed once."""
+    pairs = linear_pairs(joints, k)
     stiffness = joints['joint_stiffness'][k]
     return (stiffness * sum(jp.T @ jp for jp, _ in pairs),
             -stiffness * sum(jp.T @ jc for jp, jc in pairs),
@@ -184,7 +239,9 @@ def _constant_blocks(joints: dict, k: int):
 def _elimination(scene, fixed, joints):
     """Leaves-first order of the free bodies and each one's coupling block to its tree parent.
 
-    Free bodies joined by joints form a forest. Each tree is rooted at a body jointed to a fixed
+    Also returns, per joint, the body whose coupling slot holds the joint's block and whether
+    that body is the child (the slot then holds H_CP = H_PCᵀ). Free bodies joined by joints
+    form a forest. Each tree is rooted at a body jointed to a fixed
     body when there is one (else its first body) and listed breadth-first; the reversed list puts
     every body before its tree parent, so block elimination in that order has no fill-in.
     """
@@ -202,6 +259,8 @@ def _elimination(scene, fixed, joints):
     free = [b for b in range(nb) if not fixed[b]]
     roots = sorted(free, key=lambda b: (b not in anchored, b))
     order, elim_parent = [], np.full(nb, -1, dtype=np.int32)
+    offdiag_body = np.full(len(parent), -1, dtype=np.int32)
+    offdiag_child = np.zeros(len(parent), dtype=np.int32)
     elim_offdiag, seen = np.zeros((nb, 12, 12)), set()
     for root in roots:
         if root in seen:
@@ -217,14 +276,16 @@ def _elimination(scene, fixed, joints):
                 elim_parent[other] = body
                 h_pc = _constant_blocks(joints, k)[1]
                 elim_offdiag[other] = h_pc.T if other == child[k] else h_pc
+                offdiag_body[k], offdiag_child[k] = other, int(other == child[k])
         order += queue
-    return np.array(order[::-1], dtype=np.int32), elim_parent, elim_offdiag
+    return (np.array(order[::-1], dtype=np.int32), elim_parent, elim_offdiag, offdiag_body,
+            offdiag_child)
 
 
 def _warn_com_on_axis(scene, fixed, joints):
     """lever_arm applies no torque to a body whose centre of mass lies on the axis: say so."""
     for k, joint in enumerate(scene.joints):
-        if joints['joint_torque_model'][k] != LEVER_ARM:
+        if joints['joint_torque_model'][k] != LEVER_ARM or joint.type != 'revolute':
             continue
         for side in ('parent', 'child'):
             body = joints[f'joint_{side}'][k]

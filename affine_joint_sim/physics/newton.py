@@ -16,7 +16,8 @@ def build(t) -> SimpleNamespace:
     """Warp functions of the Newton loop for the types namespace ``t``."""
     vec12, scalar = t.vec12, t.scalar
     zero, half, one = t.zero, t.half, t.one
-    Model, Scratch = t.structs.Model, t.structs.Scratch
+    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
+                                      t.structs.Scratch)
     assemble, solve_tree = t.assemble, t.solve_tree
     incremental_potential = t.incremental_potential
 
@@ -45,8 +46,9 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_start[env, b] + alpha * scratch.dq[env, b]
 
     @wp.func
-    def line_search(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-                    kinetic_scale: scalar, energy: scalar):
+    def line_search(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
+                    scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int,
+                    energy: scalar):
         """Halve α from 1 until E(q_start + α dq) ≤ energy (8 halvings at most).
 
         Returns (E at the last trial, halvings, 1 if a trial was accepted)."""
@@ -56,7 +58,8 @@ def build(t) -> SimpleNamespace:
         trial = zero
         for ls in range(9):
             move(model, q, scratch, env, alpha)
-            trial = incremental_potential(model, q, scratch, env, kinetic_scale)
+            trial = incremental_potential(model, state, control, q, scratch, env,
+                                          kinetic_scale, bdf2)
             if trial <= energy:
                 accepted = 1
                 break
@@ -66,10 +69,11 @@ def build(t) -> SimpleNamespace:
         return trial, halvings, accepted
 
     @wp.func
-    def newton(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-               kinetic_scale: scalar):
+    def newton(model: Model, state: State, control: Control, scratch: Scratch, env: int,
+               kinetic_scale: scalar, bdf2: int):
         """Minimise E from q = q̃. Returns (iterations, halvings, line-search failures,
-        converged, residual [m/s])."""
+        converged, residual [m/s]); the result is in state.q."""
+        q = state.q
         n_free = model.elim_order.shape[0]
         dt = model.dt
         for k in range(n_free):
@@ -78,14 +82,15 @@ def build(t) -> SimpleNamespace:
         tol = model.newton_tol * dt
         energy = zero
         if model.line_search != 0:
-            energy = incremental_potential(model, q, scratch, env, kinetic_scale)
+            energy = incremental_potential(model, state, control, q, scratch, env,
+                                           kinetic_scale, bdf2)
         iterations = int(0)
         halvings = int(0)
         failures = int(0)
         converged = int(0)
         residual = zero
         for it in range(model.newton_max_iter):
-            assemble(model, q, scratch, env, kinetic_scale)
+            assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2)
             solve_tree(model, scratch, env)
             disp, affine_max = update_size(model, scratch, env)
             residual = wp.max(disp, affine_max) / dt
@@ -100,7 +105,8 @@ def build(t) -> SimpleNamespace:
             if model.line_search == 0:
                 move(model, q, scratch, env, one)
                 continue
-            trial, used, accepted = line_search(model, q, scratch, env, kinetic_scale, energy)
+            trial, used, accepted = line_search(model, state, control, q, scratch, env,
+                                                kinetic_scale, bdf2, energy)
             halvings += used
             failures += 1 - accepted
             energy = trial

@@ -1,7 +1,8 @@
 """The incremental potential E(q) of one environment (physics_spec §3.3), for the line search.
 
-E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q); the
-joint terms carry no dt². kinetic_scale is 1 (BDF1) or 9/4 (BDF2).
+E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q)
++ Σ_joints φ(x(q)) (limit, drive, damping: physics.joint_terms); the joint terms carry no dt².
+kinetic_scale is 1 (BDF1) or 9/4 (BDF2).
 """
 
 from types import SimpleNamespace
@@ -14,13 +15,16 @@ __all__ = ['build']
 def build(t) -> SimpleNamespace:
     """Warp functions of the incremental potential for the types namespace ``t``."""
     vec12, scalar, zero, half = t.vec12, t.scalar, t.zero, t.half
-    Model, Scratch = t.structs.Model, t.structs.Scratch
+    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
+                                      t.structs.Scratch)
     affine, mass_times, ortho_energy = t.affine, t.mass_times, t.ortho_energy
-    joint_energy = t.joint_energy
+    joint_energy, joint_coordinate, coordinate_terms = (t.joint_energy, t.joint_coordinate,
+                                                        t.coordinate_terms)
 
     @wp.func
-    def incremental_potential(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
-                              env: int, kinetic_scale: scalar):
+    def incremental_potential(model: Model, state: State, control: Control,
+                              q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                              kinetic_scale: scalar, bdf2: int):
         """E(q) of environment ``env`` against scratch.q_tilde [J·s²]."""
         energy = zero
         dt2 = model.dt * model.dt
@@ -33,6 +37,10 @@ def build(t) -> SimpleNamespace:
         for k in range(model.joint_parent.shape[0]):
             if model.joint_has_free[k] != 0:
                 energy += joint_energy(model, q, env, k)
+                if model.joint_state_terms[k] != 0:
+                    e, d1, d2 = coordinate_terms(model, state, control, env, k,
+                                                 joint_coordinate(model, q, state, env, k), bdf2)
+                    energy += e
         return energy
 
     return SimpleNamespace(incremental_potential=incremental_potential)

@@ -26,7 +26,7 @@ def build(t) -> SimpleNamespace:
         predict(model, state, scratch, env, bdf2, force_scale)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
         iterations, halvings, failures, converged, residual = newton(
-            model, state.q, scratch, env, kinetic_scale)
+            model, state, control, scratch, env, kinetic_scale, bdf2)
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if finite == 0:
             converged = 0

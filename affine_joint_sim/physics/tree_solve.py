@@ -71,7 +71,8 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def solve_tree(model: Model, scratch: Scratch, env: int):
         """Solve H dq = rhs into scratch.dq from the blocks scratch.hessian (diagonal) and
-        model.elim_offdiag (coupling to the tree parent)."""
+        model.elim_offdiag or, with state_coupling, scratch.offdiag (coupling to the tree
+        parent)."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
             b = model.elim_order[k]
@@ -85,7 +86,10 @@ def build(t) -> SimpleNamespace:
             scratch.forward[env, b] = y
             p = model.elim_parent[b]
             if p >= 0:
-                w = forward_solve_matrix(low, model.elim_offdiag[b])
+                off = model.elim_offdiag[b]
+                if model.state_coupling != 0:
+                    off = scratch.offdiag[env, b]
+                w = forward_solve_matrix(low, off)
                 scratch.coupling[env, b] = w
                 scratch.factor[env, p] = scratch.factor[env, p] - wp.transpose(w) @ w
                 scratch.forward[env, p] = scratch.forward[env, p] - wp.transpose(w) @ y

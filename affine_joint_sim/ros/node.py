@@ -69,7 +69,8 @@ class SimNode(Node):
             self.sim = Stepper(self.scene, device=self.config['device'])
         except (ValueError, RuntimeError) as exc:
             raise ConfigError(f"parameter 'device': {exc}") from None
-        self.commands = CommandBuffer(self.sim.joint_names, self.config['command_timeout'])
+        self.commands = CommandBuffer(self.sim.command_joint_names,
+                                      self.config['command_timeout'])
         self.pacer = Pacer(self.config['real_time_factor'])
         self.topics = load_topics()
         self.paused = False
@@ -135,7 +136,7 @@ class SimNode(Node):
                                                t['scene'].qos)
         self.events_pub = self.create_publisher(t['events'].msg_class, t['events'].name(),
                                                 t['events'].qos)
-        for joint in self.sim.joint_names:
+        for joint in self.sim.command_joint_names:
             self._subscribe('joint_torque', joint)
             self._subscribe('joint_enable', joint)
         self._subscribe('joint_commands', None)

@@ -157,7 +157,7 @@ class _Resimulation:
             raise ReplayError(f'--device {device}: {exc}') from None
         self.dt_ns = round(scene.dt * 1e9)
         self.wrapped = np.array([j.angle_mode == 'wrapped' for j in scene.joints])
-        self.buffer = CommandBuffer(self.sim.joint_names)
+        self.buffer = CommandBuffer(self.sim.command_joint_names)
         self.on_state = on_state
         self.reset(0)
 

@@ -2,7 +2,7 @@
 
 Energy K/2 (|d0|² + |d1|²) with anchor gaps d_m = x_P(u_m) − x_C(w_m) (linear in q, so its
 Hessian is the constant of physics.model's joint blocks); coordinate θ(q), the right-hand
-rotation of the child against the parent about x1 − x0 (§5.1); the torque enters q̃ explicitly,
+rotation of the child against the parent about x1 − x0 (§5.1), and its gradient; the torque enters q̃ explicitly,
 by the seed's lever-arm force (§6a) or the #448 generalized couple (§6b).
 """
 
@@ -22,6 +22,7 @@ def build(t) -> SimpleNamespace:
     Model, Scratch = t.structs.Model, t.structs.Scratch
     affine, world_point, jacobian_transpose = t.affine, t.world_point, t.jacobian_transpose
     translation_part, affine_part = t.translation_part, t.affine_part
+    direction_jacobian_transpose = t.direction_jacobian_transpose
 
     @wp.func
     def gaps(model: Model, qp: vec12, qc: vec12, k: int):
@@ -67,6 +68,32 @@ def build(t) -> SimpleNamespace:
         c = half * (wp.dot(n_p, n_c) + wp.dot(b_p, b_c))
         s = half * (wp.dot(b_p, n_c) - wp.dot(n_p, b_c))
         return wp.atan2(s, c)
+
+    @wp.func
+    def angle_gradients(model: Model, qp: vec12, qc: vec12, k: int):
+        """(∇_P θ, ∇_C θ) of θ = atan2(s, c): (c ∇s − s ∇c) / (c² + s²)."""
+        ap = affine(qp)
+        ac = affine(qc)
+        nbp = model.joint_parent_normal[k]
+        bbp = model.joint_parent_binormal[k]
+        nbc = model.joint_child_normal[k]
+        bbc = model.joint_child_binormal[k]
+        n_p = ap @ nbp
+        b_p = ap @ bbp
+        n_c = ac @ nbc
+        b_c = ac @ bbc
+        c = half * (wp.dot(n_p, n_c) + wp.dot(b_p, b_c))
+        s = half * (wp.dot(b_p, n_c) - wp.dot(n_p, b_c))
+        dc_p = half * (direction_jacobian_transpose(nbp, n_c)
+                       + direction_jacobian_transpose(bbp, b_c))
+        dc_c = half * (direction_jacobian_transpose(nbc, n_p)
+                       + direction_jacobian_transpose(bbc, b_p))
+        ds_p = half * (direction_jacobian_transpose(bbp, n_c)
+                       - direction_jacobian_transpose(nbp, b_c))
+        ds_c = half * (direction_jacobian_transpose(nbc, b_p)
+                       - direction_jacobian_transpose(bbc, n_p))
+        inv = scalar(1.0) / (c * c + s * s)
+        return inv * (c * ds_p - s * dc_p), inv * (c * ds_c - s * dc_c)
 
     @wp.func
     def lever_arm_force(q: vec12, anchor0: vec3, anchor1: vec3, tau: scalar):
@@ -132,5 +159,6 @@ def build(t) -> SimpleNamespace:
         return dropped
 
     return SimpleNamespace(energy=energy, gradients=gradients, gap=gap, angle=angle,
+                           angle_gradients=angle_gradients,
                            lever_arm_force=lever_arm_force,
                            couple_acceleration=couple_acceleration, apply_torque=apply_torque)

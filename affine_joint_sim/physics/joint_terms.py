@@ -1,0 +1,95 @@
+"""Terms on a joint's coordinate x(q) shared by joint types: limit, drive, damping.
+
+Each is a scalar function φ(x) inside the incremental potential (physics_spec preface §9),
+entering Newton through φ'(x) ∇x and the Gauss–Newton Hessian φ''(x) ∇x ∇xᵀ (φ'' ≥ 0, so PSD;
+the φ' ∇²x term is dropped). x is the multi-turn angle [rad] or the distance [m]: the last
+committed coordinate plus the in-step increment, so limits and targets work across ±π.
+
+- limit (UID 670 / 669): s((x−u)/(u−l))³ above u, s((l−x)/(u−l))³ below l, s|x−l|³ if u = l;
+- drive (UID 19 and its prismatic analogue): K/2 (x − target)² while enabled;
+- damping c (viscous, ours): the dissipation potential c/(2 dt)·(x − x_n)² of implicit Euler,
+  which is c·dt/2·(x − x_n)² in this dt²-scaled potential; under BDF2 its velocity estimate
+  (3x − 4x_n + x_{n−1})/(2dt) gives 3/2·c·dt/2·(x − (4x_n − x_{n−1})/3)².
+Like the joint energy, limit and drive carry no dt²: their physical stiffness is ∝ 1/dt².
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of the coordinate terms for the types namespace ``t``."""
+    vec12, scalar = t.vec12, t.scalar
+    zero, half, three = t.zero, t.half, t.three
+    six = scalar(6.0)
+    bdf2_x_n, bdf2_x_prev, bdf2_gain = scalar(4.0 / 3.0), scalar(1.0 / 3.0), scalar(1.5)
+    Model, State, Control = t.structs.Model, t.structs.State, t.structs.Control
+    joint_coordinate_step = t.joint_coordinate_step
+
+    @wp.func
+    def joint_coordinate(model: Model, q: wp.array2d(dtype=vec12), state: State, env: int,
+                         k: int):
+        """x(q): the last committed coordinate plus the increment to q."""
+        previous = state.joint_coordinate[env, k]
+        return previous + joint_coordinate_step(model, q, env, k, previous)
+
+    @wp.func
+    def limit_term(model: Model, k: int, x: scalar):
+        """(φ, φ', φ'') of the cubic limit penalty."""
+        s = model.joint_limit_strength[k]
+        lower = model.joint_limit_lower[k]
+        upper = model.joint_limit_upper[k]
+        width = upper - lower
+        e = zero
+        d1 = zero
+        d2 = zero
+        if width > zero:
+            if x > upper:
+                g = (x - upper) / width
+                e = s * g * g * g
+                d1 = three * s * g * g / width
+                d2 = six * s * g / (width * width)
+            elif x < lower:
+                g = (lower - x) / width
+                e = s * g * g * g
+                d1 = -three * s * g * g / width
+                d2 = six * s * g / (width * width)
+        else:
+            g = wp.abs(x - lower)
+            e = s * g * g * g
+            d1 = three * s * g * (x - lower)
+            d2 = six * s * g
+        return e, d1, d2
+
+    @wp.func
+    def coordinate_terms(model: Model, state: State, control: Control, env: int, k: int,
+                         x: scalar, bdf2: int):
+        """(φ, φ', φ'') of joint k's limit + drive + damping at coordinate x."""
+        e = zero
+        d1 = zero
+        d2 = zero
+        if model.joint_limit_strength[k] > zero:
+            e, d1, d2 = limit_term(model, k, x)
+        stiffness = model.joint_drive_stiffness[k]
+        if stiffness > zero and control.joint_drive_enabled[env, k] != 0:
+            diff = x - control.joint_target[env, k]
+            e += half * stiffness * diff * diff
+            d1 += stiffness * diff
+            d2 += stiffness
+        damping = model.joint_damping[k]
+        if damping > zero:
+            x_hat = state.joint_coordinate[env, k]
+            gain = damping * model.dt
+            if bdf2 != 0:
+                x_hat = bdf2_x_n * x_hat - bdf2_x_prev * state.joint_coordinate_prev[env, k]
+                gain = bdf2_gain * gain
+            diff = x - x_hat
+            e += half * gain * diff * diff
+            d1 += gain * diff
+            d2 += gain
+        return e, d1, d2
+
+    return SimpleNamespace(joint_coordinate=joint_coordinate, coordinate_terms=coordinate_terms)

@@ -1,0 +1,62 @@
+"""Fixed joint (UID 25): welds two bodies at the midpoint c of their centres, world axes.
+
+Energy K/2 (|c_P − c_C|² + |t_P − t_C|² + |n_P − n_C|² + |b_P − b_C|²) with c_k = x_k(c̄_k) and
+t_k, n_k, b_k = A_k times the rest copies of the world axes: linear in q, so its Hessian blocks
+are the constants of physics.model. It has no coordinate and takes no command.
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+__all__ = ['build']
+
+
+def build(t) -> SimpleNamespace:
+    """Warp functions of the fixed joint for the types namespace ``t``."""
+    vec12, half = t.vec12, t.half
+    Model = t.structs.Model
+    affine, world_point, jacobian_transpose = t.affine, t.world_point, t.jacobian_transpose
+    direction_jacobian_transpose = t.direction_jacobian_transpose
+
+    @wp.func
+    def gaps(model: Model, qp: vec12, qc: vec12, k: int):
+        """c_P − c_C [m] and the axis differences t_P − t_C, n_P − n_C, b_P − b_C."""
+        ap = affine(qp)
+        ac = affine(qc)
+        dc = world_point(qp, model.joint_parent_point0[k]) - world_point(
+            qc, model.joint_child_point0[k])
+        dt = ap @ model.joint_parent_axis[k] - ac @ model.joint_child_axis[k]
+        dn = ap @ model.joint_parent_normal[k] - ac @ model.joint_child_normal[k]
+        db = ap @ model.joint_parent_binormal[k] - ac @ model.joint_child_binormal[k]
+        return dc, dt, dn, db
+
+    @wp.func
+    def energy(model: Model, qp: vec12, qc: vec12, k: int):
+        """K/2 (|c_P − c_C|² + |t_P − t_C|² + |n_P − n_C|² + |b_P − b_C|²)."""
+        dc, dt, dn, db = gaps(model, qp, qc, k)
+        return half * model.joint_stiffness[k] * (
+            wp.dot(dc, dc) + wp.dot(dt, dt) + wp.dot(dn, dn) + wp.dot(db, db))
+
+    @wp.func
+    def gradients(model: Model, qp: vec12, qc: vec12, k: int):
+        """(∇_P E, ∇_C E)."""
+        dc, dt, dn, db = gaps(model, qp, qc, k)
+        stiffness = model.joint_stiffness[k]
+        g_parent = stiffness * (jacobian_transpose(model.joint_parent_point0[k], dc)
+                                + direction_jacobian_transpose(model.joint_parent_axis[k], dt)
+                                + direction_jacobian_transpose(model.joint_parent_normal[k], dn)
+                                + direction_jacobian_transpose(model.joint_parent_binormal[k], db))
+        g_child = -stiffness * (jacobian_transpose(model.joint_child_point0[k], dc)
+                                + direction_jacobian_transpose(model.joint_child_axis[k], dt)
+                                + direction_jacobian_transpose(model.joint_child_normal[k], dn)
+                                + direction_jacobian_transpose(model.joint_child_binormal[k], db))
+        return g_parent, g_child
+
+    @wp.func
+    def gap(model: Model, qp: vec12, qc: vec12, k: int):
+        """Distance between the two copies of the weld centre [m]."""
+        dc, dt, dn, db = gaps(model, qp, qc, k)
+        return wp.length(dc)
+
+    return SimpleNamespace(energy=energy, gradients=gradients, gap=gap)
