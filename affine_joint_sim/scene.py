@@ -183,6 +183,7 @@ class Solver(_Strict):
     newton_tol: PositiveFloat = 1.0e-4
     newton_max_iter: Annotated[int, Field(ge=1, le=1000)] = 32
     line_search: bool = True
+    warm_start: bool = True
     precision: Literal['float64', 'float32'] = 'float64'
 
 
@@ -222,12 +223,16 @@ class Scene(_Strict):
         return cls.from_yaml_text(text, source=str(path))
 
     @classmethod
-    def from_yaml_text(cls, text: str, source: str = '<yaml>') -> 'Scene':
-        """Validate a scene given as YAML text (e.g. the copy stored in a bag)."""
+    def from_yaml_text(cls, text: str, source: str = '<yaml>',
+                       solver_defaults: dict | None = None) -> 'Scene':
+        """Validate a scene given as YAML text (e.g. the copy stored in a bag);
+        ``solver_defaults`` fill solver keys the text does not give."""
         try:
             data = yaml.load(text, Loader=_SceneLoader)
         except yaml.YAMLError as exc:
             raise SceneError(f'{source}: not valid YAML: {exc}') from None
+        if solver_defaults and isinstance(data, dict) and isinstance(data.get('solver', {}), dict):
+            data['solver'] = dict(solver_defaults, **data.get('solver', {}))
         return cls.from_dict(data, source=source)
 
     def to_yaml(self) -> str:

@@ -73,6 +73,24 @@ def test_record_then_replay_is_exact(sim, ros_node, wait_for, tmp_path, storage)
     assert 'largest difference 0.000e+00' in replayed.stdout
 
 
+def test_prismatic_forces_are_recorded_and_replay_exactly(sim, ros_node, wait_for, tmp_path):
+    bag = tmp_path / 'gantry'
+    child = sim('--scene', 'gantry', '--mode', 'realtime', '--real-time-factor', '4',
+                '--record', bag)
+    states = Inbox(ros_node, 'joint_states')
+    publisher(ros_node, wait_for, 'joint_force', 'rail').publish(Float64(data=4.0))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 4.0)
+    publisher(ros_node, wait_for, 'joint_commands').publish(
+        JointState(name=['rail', 'swing'], effort=[-1.0, 0.2]))
+    assert wait_for(lambda: list(states.last.effort[:2]) == [-1.0, 0.2])
+    assert wait_for(lambda: stamp_ns(states.last) > 30 * 10_000_000)
+    assert 'Traceback' not in child.stop()
+    assert [m.data for m in bag_messages(bag)['/joints/rail/external_force']] == [4.0]
+    replayed = cli('replay', bag)
+    assert replayed.returncode == 0, replayed.stdout + replayed.stderr
+    assert 'largest difference 0.000e+00' in replayed.stdout
+
+
 def test_sigkill_leaves_a_readable_bag_up_to_the_last_split(sim, ros_node, wait_for, tmp_path):
     bag = tmp_path / 'killed'
     child = sim('--mode', 'fast', '--record', bag)

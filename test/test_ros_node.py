@@ -58,6 +58,27 @@ def test_torque_turns_the_joint_by_the_right_hand_rule(sim, ros_node, wait_for, 
     assert wait_for(lambda: math.copysign(1.0, torque) * states.last.position[0] > 0.2)
 
 
+def test_prismatic_joints_take_a_force_and_fixed_joints_no_command(sim, ros_node, wait_for):
+    child = sim('--scene', 'gantry', '--mode', 'realtime', '--real-time-factor', '2.0')
+    topics = {'/joints/rail/external_force': 'std_msgs/msg/Float64',
+              '/joints/rail/external_force/is_constrained': 'std_msgs/msg/Bool',
+              '/joints/swing/external_torque': 'std_msgs/msg/Float64'}
+    assert wait_for(lambda: all(dict(ros_node.get_topic_names_and_types()).get(name) == [kind]
+                                for name, kind in topics.items()))
+    names = [n for n, _ in ros_node.get_topic_names_and_types()]
+    assert not any('hook_weld' in n or n == '/joints/rail/external_torque' for n in names), names
+    states = Inbox(ros_node, 'joint_states')
+    publisher(ros_node, wait_for, 'joint_force', 'rail').publish(Float64(data=3.0))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 3.0)
+    # a positive force moves the carriage along +x: distance in m, velocity in m/s
+    assert wait_for(lambda: states.last.position[0] > 0.02 and states.last.velocity[0] > 0.0)
+    assert list(states.last.name) == ['rail', 'swing', 'hook_weld']
+    assert states.last.position[2] == 0.0 and states.last.effort[2] == 0.0
+    publisher(ros_node, wait_for, 'joint_force_enable', 'rail').publish(Bool(data=False))
+    assert wait_for(lambda: states.last.effort[0] == 0.0)
+    assert 'Traceback' not in child.stop()
+
+
 def test_disabled_torque_is_not_applied(sim, ros_node, wait_for):
     sim('--mode', 'realtime', '--real-time-factor', '2.0')
     states = Inbox(ros_node, 'joint_states')

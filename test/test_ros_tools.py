@@ -28,6 +28,18 @@ def test_torque_enable_and_echo(sim, ros_node, wait_for):
     assert float(row.split()[3]) in (0.0, 1.5)
 
 
+def test_torque_tool_sends_a_force_to_a_prismatic_joint(sim, ros_node, wait_for):
+    sim('--scene', 'gantry', '--mode', 'realtime', '--real-time-factor', '2.0')
+    states = Inbox(ros_node, 'joint_states')
+    sent = cli('torque', 'rail', -2.5)
+    assert sent.returncode == 0, sent.stderr
+    assert '/joints/rail/external_force: -2.5' in sent.stdout
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == -2.5)
+    off = cli('enable', 'rail', 'off')
+    assert off.returncode == 0 and '/joints/rail/external_force/is_constrained' in off.stdout
+    assert wait_for(lambda: states.last.effort[0] == 0.0)
+
+
 def test_torque_to_an_unknown_joint_names_the_known_ones(sim):
     sim()
     sent = cli('torque', 'elbow', 1.0, '--timeout', 2)

@@ -232,7 +232,7 @@ def test_bad_commands_are_rejected_and_limits_clamp():
 @pytest.mark.parametrize('scene_name', PACKAGED)
 def test_packaged_scene_converges_every_step_with_small_joint_gap(scene_name):
     sim = Stepper(Scene.from_yaml(SCENES / f'{scene_name}.yaml'))
-    for k, name in enumerate(sim.joint_names):
+    for k, name in enumerate(sim.command_joint_names):
         sim.set_torque(name, 0.5 * (-1) ** k)
     worst_gap = 0.0
     for _ in range(200):

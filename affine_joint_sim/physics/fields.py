@@ -49,6 +49,7 @@ FIELDS = _fields('model', [
     ('newton_tol', 'scalar', (), 'm/s', 'update displacement / dt at convergence'),
     ('newton_max_iter', 'int32', (), '-', 'Newton iterations per step at most'),
     ('line_search', 'int32', (), '-', '1: backtracking line search on E'),
+    ('warm_start', 'int32', (), '-', '1: Newton starts from q̃ with rigid A (polar rotation)'),
     ('state_coupling', 'int32', (), '-', '1: some joint term depends on the state, so the tree '
      'coupling blocks are assembled per environment each iteration (else model.elim_offdiag)'),
     ('body_fixed', 'int32', B, '-', '1: kinematic body, no DOFs'),

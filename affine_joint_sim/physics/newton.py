@@ -1,6 +1,8 @@
 """Newton's method on the incremental potential (physics_spec §3.4–3.5, preface §7).
 
-From q̃: assemble, tree-solve, test convergence on the fresh direction (largest box-corner
+From q̃ (with each free body's A replaced by its nearest rotation when solver.warm_start is on:
+q̃ of a torqued or spinning body is sheared, and starting rigid saves iterations): assemble,
+tree-solve, test convergence on the fresh direction (largest box-corner
 displacement and largest affine entry ≤ newton_tol·dt), then a backtracking line search on E
 (≤ 8 halvings, accept on no increase). Runs inside the step kernel: no host sync.
 """
@@ -14,12 +16,28 @@ __all__ = ['build']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the Newton loop for the types namespace ``t``."""
-    vec12, scalar = t.vec12, t.scalar
+    vec3, mat33, vec12, scalar = t.vec3, t.mat33, t.vec12, t.scalar
     zero, half, one = t.zero, t.half, t.one
+    affine, ortho_energy = t.affine, t.ortho_energy
+    rigid_strain, roundoff = t.rigid_strain, t.energy_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     assemble, solve_tree = t.assemble, t.solve_tree
     incremental_potential = t.incremental_potential
+
+    @wp.func
+    def nearest_rotation(q: vec12):
+        """q with A replaced by its polar rotation U Vᵀ (A = U Σ Vᵀ): the warm start. A that is
+        a rotation to rounding stays as it is (its SVD would add rounding)."""
+        if ortho_energy(affine(q)) <= rigid_strain:
+            return q
+        u = mat33()
+        sigma = vec3()
+        v = mat33()
+        wp.svd3(affine(q), u, sigma, v)
+        r = u @ wp.transpose(v)
+        return vec12(q[0], q[1], q[2], r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2],
+                     r[2, 0], r[2, 1], r[2, 2])
 
     @wp.func
     def update_size(model: Model, scratch: Scratch, env: int):
@@ -56,11 +74,12 @@ def build(t) -> SimpleNamespace:
         accepted = int(0)
         halvings = int(0)
         trial = zero
+        bound = energy + roundoff * wp.abs(energy)
         for ls in range(9):
             move(model, q, scratch, env, alpha)
             trial = incremental_potential(model, state, control, q, scratch, env,
                                           kinetic_scale, bdf2)
-            if trial <= energy:
+            if trial <= bound:
                 accepted = 1
                 break
             if ls < 8:
@@ -79,6 +98,8 @@ def build(t) -> SimpleNamespace:
         for k in range(n_free):
             b = model.elim_order[k]
             q[env, b] = scratch.q_tilde[env, b]
+            if model.warm_start != 0:
+                q[env, b] = nearest_rotation(q[env, b])
         tol = model.newton_tol * dt
         energy = zero
         if model.line_search != 0:

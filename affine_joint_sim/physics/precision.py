@@ -29,4 +29,10 @@ def types_for(scalar) -> SimpleNamespace:
         zero=scalar(0.0), half=scalar(0.5), one=scalar(1.0), two=scalar(2.0),
         three=scalar(3.0), four=scalar(4.0),
         pi=scalar(math.pi), two_pi=scalar(2.0 * math.pi),
-        inv_sqrt2=scalar(1.0 / math.sqrt(2.0)))
+        inv_sqrt2=scalar(1.0 / math.sqrt(2.0)),
+        # relative rounding of a sum of energy terms: the line search's "no increase"
+        energy_roundoff=scalar(64.0 * float(np.finfo(np.float64 if scalar is wp.float64
+                                                      else np.float32).eps)),
+        # ‖AAᵀ − I‖² of a rotation rounded to this precision stays below this
+        rigid_strain=scalar((16.0 * float(np.finfo(np.float64 if scalar is wp.float64
+                                                    else np.float32).eps)) ** 2))

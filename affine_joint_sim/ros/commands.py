@@ -35,7 +35,8 @@ class CommandBuffer:
         self._held = [float(t) != 0.0 for t in torques]     # a non-zero torque that can time out
 
     def torque(self, joint: str, value: float) -> str | None:
-        """Queue torque ``value`` [N·m] for ``joint``; returns why it was rejected, or None."""
+        """Queue torque ``value`` [N·m] (force [N] for a prismatic joint) for ``joint``;
+        returns why it was rejected, or None."""
         k = self._index.get(joint)
         if k is None:
             return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
@@ -65,11 +66,12 @@ class CommandBuffer:
 
     def take(self, key: str, joint: str | None, msg) -> list[str]:
         """Queue a command message as it arrived on the topic ``key`` of topics.yaml
-        (``joint_torque`` / ``joint_enable`` for ``joint``, or ``joint_commands``); returns the
-        reasons for what was dropped. The node and the bag replay both feed commands here."""
+        (``joint_torque`` / ``joint_enable``, ``joint_force`` / ``joint_force_enable`` for
+        ``joint``, or ``joint_commands``); returns the reasons for what was dropped. The node
+        and the bag replay both feed commands here."""
         if key == 'joint_commands':
             return self.joint_commands(list(msg.name), list(msg.effort))
-        queue = self.torque if key == 'joint_torque' else self.enable
+        queue = self.torque if key in ('joint_torque', 'joint_force') else self.enable
         problem = queue(joint, msg.data)
         return [] if problem is None else [problem]
 

@@ -34,7 +34,7 @@ from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check
-from affine_joint_sim.ros.topics import load_topics
+from affine_joint_sim.ros.topics import JOINT_COMMAND_KEYS, load_topics
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import SimulationWarning, Stepper
 
@@ -136,9 +136,9 @@ class SimNode(Node):
                                                t['scene'].qos)
         self.events_pub = self.create_publisher(t['events'].msg_class, t['events'].name(),
                                                 t['events'].qos)
-        for joint in self.sim.command_joint_names:
-            self._subscribe('joint_torque', joint)
-            self._subscribe('joint_enable', joint)
+        for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
+            for key in JOINT_COMMAND_KEYS.get(kind, ()):
+                self._subscribe(key, joint)
         self._subscribe('joint_commands', None)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)

@@ -139,7 +139,13 @@ def _scene_of(bag: RecordedBag, scene_path) -> Scene:
         return Scene.from_yaml(scene_path)
     if bag.scene_yaml is None:
         raise ReplayError(f'{bag.path}: the bag holds no scene (~/scene); give one with --scene')
-    return Scene.from_yaml_text(bag.scene_yaml, source=f'{bag.path} (~/scene)')
+    return Scene.from_yaml_text(bag.scene_yaml, source=f'{bag.path} (~/scene)',
+                                solver_defaults=SOLVER_KEYS_BEFORE)
+
+
+# The recorder writes the scene with every default spelled out, so a solver key missing from a
+# bag's scene was added after the bag was recorded: it replays with the behaviour of its time.
+SOLVER_KEYS_BEFORE = {'warm_start': False}
 
 
 class _Resimulation:

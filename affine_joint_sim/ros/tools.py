@@ -32,32 +32,44 @@ def _wait(predicate, timeout: float) -> bool:
     return True
 
 
+# The same command for a prismatic joint: a force [N] on external_force.
+_PRISMATIC_TWIN = {'joint_torque': 'joint_force', 'joint_enable': 'joint_force_enable'}
+
+
 def send(key: str, joint: str, value, namespace: str = '', timeout: float = 10.0) -> int:
-    """Publish one command (``key`` is ``joint_torque`` or ``joint_enable``) to ``joint``.
+    """Publish one command (``key`` is ``joint_torque`` or ``joint_enable``) to ``joint``; a
+    prismatic joint (whose node subscribes ``external_force``) gets it as a force [N].
 
     Waits up to ``timeout`` [s] for a subscriber (the node) and for its acknowledgement.
     Returns the exit status: 0 delivered, 1 no subscriber (the message names the joints the
     graph knows), 2 invalid value.
     """
     topics = load_topics()
-    topic = topics[key]
     if key == 'joint_torque' and not math.isfinite(value):
         print(f'affine-joint-sim: error: torque must be finite, got {value!r}', file=sys.stderr)
         return 2
     node = _tool_node(namespace)
     try:
-        name = topic.name(joint)
-        publisher = node.create_publisher(topic.msg_class, name, topic.qos)
-        full_name = publisher.topic_name
-        if not _wait(lambda: publisher.get_subscription_count() > 0, timeout):
-            suffix = topics['joint_torque'].template.split('{joint}')[-1]
+        candidates = [(topics[k], node.create_publisher(topics[k].msg_class, topics[k].name(joint),
+                                                        topics[k].qos))
+                      for k in (key, _PRISMATIC_TWIN[key])]
+
+        def matched():
+            return next(((t, p) for t, p in candidates if p.get_subscription_count() > 0), None)
+
+        if not _wait(lambda: matched() is not None, timeout):
+            suffixes = tuple(topics[k].template.split('{joint}')[-1]
+                             for k in ('joint_torque', 'joint_force'))
             known = sorted(n for n, _ in node.get_topic_names_and_types()
-                           if n.endswith(suffix) and node.count_subscribers(n) > 0)
-            print(f'affine-joint-sim: error: nothing subscribes to {full_name} after '
-                  f'{timeout:g} s; is the node running in namespace {namespace or "/"!r} and '
-                  f'is {joint!r} a joint? Torque topics seen: {", ".join(known) or "none"}',
+                           if n.endswith(suffixes) and node.count_subscribers(n) > 0)
+            print(f'affine-joint-sim: error: nothing subscribes to '
+                  f'{candidates[0][1].topic_name} after {timeout:g} s; is the node running in '
+                  f'namespace {namespace or "/"!r} and is {joint!r} a joint that takes commands?'
+                  f' Torque and force topics seen: {", ".join(known) or "none"}',
                   file=sys.stderr)
             return 1
+        topic, publisher = matched()
+        full_name = publisher.topic_name
         publisher.publish(topic.msg_class(data=value))
         if not publisher.wait_for_all_acked(Duration(seconds=timeout)):
             print(f'affine-joint-sim: error: {full_name}: not acknowledged within {timeout:g} s',
