@@ -1,8 +1,7 @@
 """Newton's method on the incremental potential (physics_spec §3.4–3.5, preface §7).
 
-From q̃ (with each free body's A replaced by its nearest rotation when solver.warm_start is on:
-q̃ of a torqued or spinning body is sheared, and starting rigid saves iterations): assemble,
-tree-solve, test convergence on the fresh direction (largest box-corner
+From q̃ (with solver.warm_start, a body whose prediction added shear starts from the rotation
+of q̃ times the stretch of q_n: see ``warm_start``): assemble, tree-solve, test convergence on the fresh direction (largest box-corner
 displacement and largest affine entry ≤ newton_tol·dt), then a backtracking line search on E
 (≤ 8 halvings, accept on no increase). Runs inside the step kernel: no host sync.
 """
@@ -17,7 +16,7 @@ __all__ = ['build']
 def build(t) -> SimpleNamespace:
     """Warp functions of the Newton loop for the types namespace ``t``."""
     vec3, mat33, vec12, scalar = t.vec3, t.mat33, t.vec12, t.scalar
-    zero, half, one = t.zero, t.half, t.one
+    zero, half, one, two = t.zero, t.half, t.one, t.two
     affine, ortho_energy = t.affine, t.ortho_energy
     rigid_strain, roundoff = t.rigid_strain, t.energy_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
@@ -26,18 +25,29 @@ def build(t) -> SimpleNamespace:
     incremental_potential = t.incremental_potential
 
     @wp.func
-    def nearest_rotation(q: vec12):
-        """q with A replaced by its polar rotation U Vᵀ (A = U Σ Vᵀ): the warm start. A that is
-        a rotation to rounding stays as it is (its SVD would add rounding)."""
-        if ortho_energy(affine(q)) <= rigid_strain:
-            return q
+    def polar(a: mat33):
+        """(R, S) of the polar decomposition A = R S (R = U Vᵀ, S = V Σ Vᵀ of A = U Σ Vᵀ)."""
         u = mat33()
         sigma = vec3()
         v = mat33()
-        wp.svd3(affine(q), u, sigma, v)
-        r = u @ wp.transpose(v)
-        return vec12(q[0], q[1], q[2], r[0, 0], r[0, 1], r[0, 2], r[1, 0], r[1, 1], r[1, 2],
-                     r[2, 0], r[2, 1], r[2, 2])
+        wp.svd3(a, u, sigma, v)
+        return u @ wp.transpose(v), v @ wp.diag(sigma) @ wp.transpose(v)
+
+    @wp.func
+    def warm_start(q_tilde: vec12, q_n: vec12):
+        """q̃ with A = R̃ S_n: the rotation the prediction carries and the stretch of the last
+        state, so that a torqued or spinning body's predicted shear is dropped while a loaded
+        body keeps its equilibrium stretch. A q̃ that is a rotation to rounding stays as it is."""
+        a = affine(q_tilde)
+        a_n = affine(q_n)
+        strain = ortho_energy(a)
+        if strain <= rigid_strain or strain <= two * ortho_energy(a_n):
+            return q_tilde
+        r, s_tilde = polar(a)
+        r_n, s_n = polar(a_n)
+        m = r @ s_n
+        return vec12(q_tilde[0], q_tilde[1], q_tilde[2], m[0, 0], m[0, 1], m[0, 2],
+                     m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
 
     @wp.func
     def update_size(model: Model, scratch: Scratch, env: int):
@@ -99,7 +109,7 @@ def build(t) -> SimpleNamespace:
             b = model.elim_order[k]
             q[env, b] = scratch.q_tilde[env, b]
             if model.warm_start != 0:
-                q[env, b] = nearest_rotation(q[env, b])
+                q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
         tol = model.newton_tol * dt
         energy = zero
         if model.line_search != 0:
