@@ -11,12 +11,14 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.codes import PRISMATIC
+
 __all__ = ['build']
 
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the assembly for the types namespace ``t``."""
-    vec12, mat12, scalar = t.vec12, t.mat12, t.scalar
+    vec12, mat12, scalar, zero = t.vec12, t.mat12, t.scalar, t.zero
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     affine, mass_times, add_mass = t.affine, t.mass_times, t.add_mass
@@ -27,23 +29,10 @@ def build(t) -> SimpleNamespace:
     coordinate_terms = t.coordinate_terms
 
     @wp.func
-    def add_state_blocks(model: Model, state: State, control: Control,
-                         q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int,
-                         bdf2: int):
-        """Joint k's coordinate-term gradient into rhs and its state-dependent blocks into
-        hessian and offdiag."""
-        h_pp, h_pc, h_cc = joint_state_blocks(model, q, env, k)
-        g_parent = vec12()
-        g_child = vec12()
-        if model.joint_state_terms[k] != 0:
-            e, d1, d2 = coordinate_terms(model, state, control, env, k,
-                                         joint_coordinate(model, q, state, env, k), bdf2)
-            x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
-            g_parent = d1 * x_parent
-            g_child = d1 * x_child
-            h_pp += d2 * wp.outer(x_parent, x_parent)
-            h_pc += d2 * wp.outer(x_parent, x_child)
-            h_cc += d2 * wp.outer(x_child, x_child)
+    def add_blocks(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
+                   g_child: vec12, h_pp: mat12, h_pc: mat12, h_cc: mat12):
+        """Gradients into rhs, diagonal blocks into hessian and the coupling block into offdiag
+        (transposed when its slot belongs to the child) of joint k's free bodies."""
         bp = model.joint_parent[k]
         bc = model.joint_child[k]
         if model.body_fixed[bp] == 0:
@@ -58,6 +47,24 @@ def build(t) -> SimpleNamespace:
                 scratch.offdiag[env, slot] += wp.transpose(h_pc)
             else:
                 scratch.offdiag[env, slot] += h_pc
+
+    @wp.func
+    def add_state_blocks(model: Model, state: State, control: Control,
+                         q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int,
+                         bdf2: int):
+        """Joint k's state-dependent blocks (prismatic axis terms) and its coordinate terms'
+        gradient and Gauss–Newton blocks, where they are not zero."""
+        if model.joint_type[k] == PRISMATIC:
+            h_pp, h_pc, h_cc = joint_state_blocks(model, q, env, k)
+            add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
+        if model.joint_state_terms[k] != 0:
+            e, d1, d2 = coordinate_terms(model, state, control, env, k,
+                                         joint_coordinate(model, q, state, env, k), bdf2)
+            if d1 != zero or d2 != zero:     # e.g. an inactive limit alone costs no blocks
+                x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
+                add_blocks(model, scratch, env, k, d1 * x_parent, d1 * x_child,
+                           d2 * wp.outer(x_parent, x_parent), d2 * wp.outer(x_parent, x_child),
+                           d2 * wp.outer(x_child, x_child))
 
     @wp.func
     def assemble(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),

@@ -1,9 +1,10 @@
 """Newton's method on the incremental potential (physics_spec §3.4–3.5, preface §7).
 
 From q̃ (with solver.warm_start, a body whose prediction added shear starts from the rotation
-of q̃ times the stretch of q_n: see ``warm_start``): assemble, tree-solve, test convergence on the fresh direction (largest box-corner
-displacement and largest affine entry ≤ newton_tol·dt), then a backtracking line search on E
-(≤ 8 halvings, accept on no increase). Runs inside the step kernel: no host sync.
+of q̃ times the stretch of q_n: see ``warm_start``): assemble, tree-solve, test convergence on
+the fresh direction (largest box-corner displacement and largest affine entry ≤ newton_tol·dt),
+then a backtracking line search on E (≤ 8 halvings, accept on no increase up to the rounding of
+E). Runs inside the step kernel: no host sync.
 """
 
 from types import SimpleNamespace
@@ -77,7 +78,9 @@ def build(t) -> SimpleNamespace:
     def line_search(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
                     scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int,
                     energy: scalar):
-        """Halve α from 1 until E(q_start + α dq) ≤ energy (8 halvings at most).
+        """Halve α from 1 until E(q_start + α dq) ≤ energy + its rounding (8 halvings at most):
+        near convergence E changes by less than its rounding, and rejecting a step on that
+        noise stalled Newton (float32 most).
 
         Returns (E at the last trial, halvings, 1 if a trial was accepted)."""
         alpha = one
