@@ -18,8 +18,12 @@ __all__ = ['Stages']
 _PROBES = {}
 
 
-def _probe_kernels(t):
-    """Kernels launching single stages for the types namespace ``t`` (built once)."""
+ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START = range(4)
+
+
+def _probe_kernel(t):
+    """One kernel that launches the stage ``which`` (ENERGY, ...) for the types namespace ``t``
+    (built once: one module to compile per precision, not one per stage)."""
     if t.name in _PROBES:
         return _PROBES[t.name]
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
@@ -27,21 +31,34 @@ def _probe_kernels(t):
     vec12, scalar = t.vec12, t.scalar
     incremental_potential, assemble, solve_tree = (t.incremental_potential, t.assemble,
                                                    t.solve_tree)
+    joint_raw_coordinate, joint_coordinate_gradients = (t.joint_raw_coordinate,
+                                                        t.joint_coordinate_gradients)
+    warm_start = t.warm_start
     one = t.one
 
     @wp.kernel(module='unique')
-    def energy(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
-               scratch: Scratch, out: wp.array(dtype=scalar)):
-        out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
+    def probe(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
+              scratch: Scratch, which: int,
+              energy_out: wp.array(dtype=scalar), coordinate_out: wp.array(dtype=scalar),
+              parent_gradient_out: wp.array(dtype=vec12),
+              child_gradient_out: wp.array(dtype=vec12), q_out: wp.array(dtype=vec12)):
+        if which == ENERGY:
+            energy_out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
+        elif which == NEWTON_SYSTEM:
+            assemble(model, state, control, q, scratch, 0, one, 0)
+            solve_tree(model, scratch, 0)
+        elif which == COORDINATES:
+            for k in range(model.joint_parent.shape[0]):
+                coordinate_out[k] = joint_raw_coordinate(model, q, 0, k)
+                g_parent, g_child = joint_coordinate_gradients(model, q, 0, k)
+                parent_gradient_out[k] = g_parent
+                child_gradient_out[k] = g_child
+        else:
+            for b in range(q.shape[1]):
+                q_out[b] = warm_start(q[0, b], scratch.q_n[0, b])
 
-    @wp.kernel(module='unique')
-    def newton_system(model: Model, state: State, control: Control,
-                      q: wp.array2d(dtype=vec12), scratch: Scratch):
-        assemble(model, state, control, q, scratch, 0, one, 0)
-        solve_tree(model, scratch, 0)
-
-    _PROBES[t.name] = (energy, newton_system)
-    return _PROBES[t.name]
+    _PROBES[t.name] = probe
+    return probe
 
 
 class Stages:
@@ -59,9 +76,14 @@ class Stages:
             allocate(self.t, getattr(self.t.structs, group.capitalize()), group, sizes, device)
             for group in ('state', 'control', 'scratch'))
         self.free = [b for b in range(nb) if not self.host.body_fixed[b]]
+        nj = max(self.host.joint_count, 1)
         self._q = wp.zeros((1, nb), dtype=self.t.vec12, device=device)
-        self._out = wp.zeros(1, dtype=self.t.scalar, device=device)
-        self._energy, self._newton_system = _probe_kernels(self.t)
+        self._outputs = [wp.zeros(1, dtype=self.t.scalar, device=device),
+                         wp.zeros(nj, dtype=self.t.scalar, device=device),
+                         wp.zeros(nj, dtype=self.t.vec12, device=device),
+                         wp.zeros(nj, dtype=self.t.vec12, device=device),
+                         wp.zeros(nb, dtype=self.t.vec12, device=device)]
+        self._probe = _probe_kernel(self.t)
 
     def set_joint_inputs(self, coordinate=None, coordinate_prev=None, target=None,
                          drive_enabled=None):
@@ -78,19 +100,22 @@ class Stages:
         self._q.assign(np.asarray(q)[None])
         self.scratch.q_tilde.assign(np.asarray(q_tilde)[None])
 
+    def _launch(self, which):
+        wp.launch(self._probe, dim=1, inputs=[self.model, self.state, self.control, self._q,
+                                              self.scratch, which, *self._outputs],
+                  device=self.device)
+
     def energy(self, q, q_tilde) -> float:
         """E(q) against the prediction q_tilde (BDF1 scales) [J·s²]."""
         self._load(q, q_tilde)
-        wp.launch(self._energy, dim=1, inputs=[self.model, self.state, self.control, self._q,
-                                               self.scratch, self._out], device=self.device)
-        return float(self._out.numpy()[0])
+        self._launch(ENERGY)
+        return float(self._outputs[0].numpy()[0])
 
     def newton_system(self, q, q_tilde):
         """(∇E, dense ∇²E as assembled (PSD-projected), tree-solve direction dq) over the
         free DOFs at q."""
         self._load(q, q_tilde)
-        wp.launch(self._newton_system, dim=1, inputs=[self.model, self.state, self.control,
-                                                      self._q, self.scratch], device=self.device)
+        self._launch(NEWTON_SYSTEM)
         rhs, blocks = self.scratch.rhs.numpy()[0], self.scratch.hessian.numpy()[0]
         offdiag = (self.scratch.offdiag.numpy()[0] if self.host.state_coupling
                    else self.host.elim_offdiag)
@@ -106,3 +131,18 @@ class Stages:
                 hessian[12 * j:12 * j + 12, 12 * i:12 * i + 12] = off.T
         gradient = -np.concatenate([rhs[b] for b in self.free])
         return gradient, hessian, np.concatenate([dq[b] for b in self.free])
+
+    def joint_coordinates(self, q):
+        """(raw coordinates θ(q) ∈ (−π, π] or d(q) [rad | m], ∇_P x, ∇_C x) of every joint at
+        q, shapes (n_joints,), (n_joints, 12), (n_joints, 12)."""
+        self._q.assign(np.asarray(q)[None])
+        self._launch(COORDINATES)
+        n = self.host.joint_count
+        return tuple(a.numpy()[:n].copy() for a in self._outputs[1:4])
+
+    def warm_start(self, q_tilde, q_n):
+        """The Newton start of every body from the prediction q_tilde and the last state q_n."""
+        self._q.assign(np.asarray(q_tilde)[None])
+        self.scratch.q_n.assign(np.asarray(q_n)[None])
+        self._launch(WARM_START)
+        return self._outputs[4].numpy().copy()

@@ -146,5 +146,5 @@ def build(t) -> SimpleNamespace:
             energy = trial
         return iterations, halvings, failures, converged, residual
 
-    return SimpleNamespace(update_size=update_size, move=move, line_search=line_search,
-                           newton=newton)
+    return SimpleNamespace(warm_start=warm_start, update_size=update_size, move=move,
+                           line_search=line_search, newton=newton)

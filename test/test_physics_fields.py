@@ -1,0 +1,46 @@
+"""The one table of fields (physics.fields): structs, host model and allocation follow it."""
+
+import numpy as np
+import pytest
+import warp as wp
+
+from affine_joint_sim.physics.fields import FIELDS, GROUPS, allocate, fields_of
+from affine_joint_sim.physics.kernels import step_kernels
+from affine_joint_sim.physics.model import HostModel, build_model
+from test_joints import every_joint_type
+
+SIZES = {'env': 3, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 2}
+
+
+@pytest.mark.parametrize('scalar', [wp.float64, wp.float32])
+def test_structs_and_allocation_follow_the_table(scalar):
+    t = step_kernels(scalar)
+    assert len({f.name for f in FIELDS}) == len(FIELDS), 'a field name is used twice'
+    for group in GROUPS:
+        struct = getattr(t.structs, group.capitalize())
+        assert list(struct.vars) == [f.name for f in fields_of(group)]
+        if group == 'model':
+            continue
+        instance = allocate(t, struct, group, SIZES, 'cpu')
+        for f in fields_of(group):
+            array = getattr(instance, f.name)
+            assert array.shape == tuple(SIZES[d] for d in f.shape), f.name
+            assert f.unit and f.doc
+
+
+def test_the_host_model_carries_exactly_the_model_fields_with_their_shapes():
+    scene = every_joint_type()
+    host = build_model(scene)
+    sizes = dict(SIZES, body=len(scene.bodies), joint=len(scene.joints),
+                 free=int(np.sum(host.body_fixed == 0)))
+    for f in fields_of('model'):
+        value = np.asarray(getattr(host, f.name))
+        trailing = {'vec3': (3,), 'vec12': (12,), 'mat12': (12, 12)}.get(f.dtype, ())
+        if f.shape == ():
+            assert value.shape in ((), (3,)), f.name
+        else:
+            assert value.shape == tuple(sizes[d] for d in f.shape) + trailing, f.name
+    values = {f.name: getattr(host, f.name) for f in fields_of('model')}
+    del values['dt']
+    with pytest.raises(ValueError, match=r"missing \['dt'\]"):
+        HostModel(values)
