@@ -1,10 +1,10 @@
 """The physics pipeline of one precision, composed stage by stage into the step kernel.
 
-``step_kernels(scalar)`` builds, once per scalar type (wp.float64 or wp.float32), the types and
-structs of ``fields``, then each stage's Warp functions in pipeline order: affine kinematics,
-orthogonality, tree solve, joints, joint terms, commands, incremental potential, assembly, prediction,
-Newton, commit and the step kernel. Every stage function is an attribute of the returned
-namespace, so tests can launch a stage on its own (``physics.evaluate``).
+``step_kernels(scalar)`` builds, once per scalar type (wp.float64 or wp.float32), the types
+and structs of ``fields``, then each stage's Warp functions in pipeline order: affine
+kinematics, orthogonality, tree solve, joints, joint terms, commands, incremental potential,
+assembly, prediction, Newton, commit and the step kernel. Every stage function is an attribute
+of the returned namespace, so tests can launch a stage on its own (``physics.evaluate``).
 """
 
 from types import SimpleNamespace
@@ -18,7 +18,8 @@ from affine_joint_sim.physics.precision import types_for
 
 __all__ = ['step_kernels', 'scalar_of']
 
-_STAGES = (affine, ortho, tree_solve, joints, joint_terms, commands, potential, assemble, prediction, newton,
+_STAGES = (affine, ortho, tree_solve, joints, joint_terms, commands, potential, assemble,
+           prediction, newton,
            commit, step)
 _BUILT = {}
 

@@ -17,6 +17,7 @@ __all__ = ['types_for']
 
 def types_for(scalar) -> SimpleNamespace:
     """Types and constants for ``scalar`` (wp.float64 or wp.float32)."""
+    eps = float(np.finfo(np.float64 if scalar is wp.float64 else np.float32).eps)
     # Constants are computed here, in Python: a quotient written inside a kernel is evaluated in
     # float32 even when cast to float64 (Warp 1.19), which made BDF2's 4/3 − 1/3 = 1 + 3e-8.
     return SimpleNamespace(
@@ -31,8 +32,6 @@ def types_for(scalar) -> SimpleNamespace:
         pi=scalar(math.pi), two_pi=scalar(2.0 * math.pi),
         inv_sqrt2=scalar(1.0 / math.sqrt(2.0)),
         # relative rounding of a sum of energy terms: the line search's "no increase"
-        energy_roundoff=scalar(64.0 * float(np.finfo(np.float64 if scalar is wp.float64
-                                                      else np.float32).eps)),
+        energy_roundoff=scalar(64.0 * eps),
         # ‖AAᵀ − I‖² of a rotation rounded to this precision stays below this
-        rigid_strain=scalar((16.0 * float(np.finfo(np.float64 if scalar is wp.float64
-                                                    else np.float32).eps)) ** 2))
+        rigid_strain=scalar((16.0 * eps) ** 2))

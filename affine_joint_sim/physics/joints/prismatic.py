@@ -29,7 +29,8 @@ def build(t) -> SimpleNamespace:
         """δ = c_C − c_P and the world axes t_P, t_C."""
         delta = world_point(qc, model.joint_child_point0[k]) - world_point(
             qp, model.joint_parent_point0[k])
-        return delta, affine(qp) @ model.joint_parent_axis[k], affine(qc) @ model.joint_child_axis[k]
+        t_parent = affine(qp) @ model.joint_parent_axis[k]
+        return delta, t_parent, affine(qc) @ model.joint_child_axis[k]
 
     @wp.func
     def frame_gaps(model: Model, qp: vec12, qc: vec12, k: int):

@@ -2,7 +2,8 @@
 
 Energy K/2 (|d0|² + |d1|²) with anchor gaps d_m = x_P(u_m) − x_C(w_m) (linear in q, so its
 Hessian is the constant of physics.model's joint blocks); coordinate θ(q), the right-hand
-rotation of the child against the parent about x1 − x0 (§5.1), and its gradient; the torque enters q̃ explicitly,
+rotation of the child against the parent about x1 − x0 (§5.1), and its gradient; the torque
+enters q̃ explicitly,
 by the seed's lever-arm force (§6a) or the #448 generalized couple (§6b).
 """
 
