@@ -165,25 +165,34 @@ def test_pause_step_reset_and_clock(sim, ros_node, wait_for):
 
 def _lockstep_run(sim, ros_node):
     """States of the node in lockstep for 0.5 s under the demo PD controller (this process)."""
+    import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
     from affine_joint_sim.ros.controller import PDController
 
     child = sim('--scene', 'double_pendulum', '--mode', 'lockstep', '--duration', '0.5')
+    listener = rclpy.create_node('lockstep_listener', context=ros_node.context)
+    states = Inbox(listener, 'joint_states')
+    executor = SingleThreadedExecutor(context=ros_node.context)
+    executor.add_node(listener)
+    deadline = time.monotonic() + 30.0
+    while not states.messages and time.monotonic() < deadline:    # matched before the loop runs
+        executor.spin_once(timeout_sec=0.1)
     controller = PDController({'shoulder': 0.5, 'elbow': -0.3}, kp=40.0, kd=4.0,
                               context=ros_node.context)
-    states = Inbox(controller, 'joint_states')
-    executor = SingleThreadedExecutor(context=ros_node.context)
     executor.add_node(controller)
-    deadline = time.monotonic() + 30.0
-    while len(states.messages) < 51 and time.monotonic() < deadline:
+    while len({stamp_ns(m) for m in states.messages}) < 51 and time.monotonic() < deadline:
         executor.spin_once(timeout_sec=0.1)
     output = child.stop()
     executor.shutdown()
     controller.destroy_node()
+    listener.destroy_node()
     assert 'Traceback' not in output
-    return [(stamp_ns(m), bytes(m.position), bytes(m.velocity), bytes(m.effort))
-            for m in states.messages]
+    by_stamp = {}           # a state the node waited on may have been published again
+    for m in states.messages:
+        by_stamp.setdefault(stamp_ns(m), (stamp_ns(m), bytes(m.position), bytes(m.velocity),
+                                          bytes(m.effort)))
+    return [by_stamp[k] for k in sorted(by_stamp)]
 
 
 def test_lockstep_closed_loop_is_bit_identical(sim, ros_node, wait_for):

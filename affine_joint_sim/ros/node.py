@@ -2,7 +2,10 @@
 
 Two threads: an executor thread runs the subscription, service and parameter callbacks; the
 main thread steps. They share one lock, so a command whose callback ran before step n is
-computed applies to step n, and a service never lands in the middle of a step. Each step
+computed applies to step n, and a service never lands in the middle of a step. In lockstep
+mode a ``LockstepGate`` decides when the next step may go: it counts the answers to the
+published state, drops stale ones, has the waiting state published again for controllers that
+join late, and has the node say what it waits for. Each step
 publishes ``joint_states`` (and ``/clock``) stamped with the step counter's simulated time.
 (Running the callbacks between steps in one thread would cost ~0.2 ms per step: rclpy builds
 its wait set in Python.) The node does no physics itself.
@@ -31,6 +34,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
+from affine_joint_sim.ros.lockstep import LockstepGate
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check
@@ -74,7 +78,9 @@ class SimNode(Node):
         self.pacer = Pacer(self.config['real_time_factor'])
         self.topics = load_topics()
         self.paused = False
-        self._released = False          # lockstep: a joint_commands message came since last step
+        self.gate = LockstepGate(self.config['lockstep_publishers'])
+        self._commands_topic = ''       # resolved joint_commands name (for the waiting report)
+        self._warned_publishers = 0     # publisher count last warned about (lockstep)
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
         self._stepping_thread = None
@@ -145,21 +151,33 @@ class SimNode(Node):
         self.create_service(Trigger, '~/step', self._on_step)
 
     def _subscribe(self, key, joint):
-        """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command; a
-        ``joint_commands`` message also releases the next lockstep step."""
+        """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command; in
+        lockstep, a ``joint_commands`` message answers the state its stamp names (stale ones
+        are dropped before they are recorded or applied)."""
         topic = self.topics[key]
         name = self.resolve_topic_name(topic.name(joint))
         msg_class = topic.msg_class
+        answers = key == 'joint_commands'
+        if answers:
+            self._commands_topic = name
 
         def receive(raw):
+            msg = deserialize_message(raw, msg_class)
             with self._wake:
+                if answers and self.config['mode'] == 'lockstep':
+                    stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+                    if not self.gate.answer(stamp):
+                        self._reject(name, f'a command stamped t = {stamp * 1e-9:.6f} s answers '
+                                     f'no waiting state (the node waits on t = '
+                                     f'{self.gate.stamp_ns * 1e-9:.6f} s): dropped '
+                                     f'({self.gate.stale} so far)', kind='stale')
+                        return
+                    if self.gate.released:
+                        self._wake.notify()
                 if self.recorder is not None:
                     self._inbox.append((name, raw))
-                for problem in self.commands.take(key, joint, deserialize_message(raw, msg_class)):
+                for problem in self.commands.take(key, joint, msg):
                     self._reject(name, problem)
-                if key == 'joint_commands':
-                    self._released = True
-                    self._wake.notify()
 
         self.create_subscription(msg_class, name, receive, topic.qos, raw=True)
         self._command_topics.append(BagTopic(name, topic.type, topic.qos))
@@ -194,11 +212,12 @@ class SimNode(Node):
 
     # ---- commands ---------------------------------------------------------------------------
 
-    def _reject(self, topic, problem):
-        """Warn about a dropped command, at most once per ``_WARN_EVERY`` s per topic."""
+    def _reject(self, topic, problem, kind='invalid'):
+        """Warn about a dropped command, at most once per ``_WARN_EVERY`` s per topic and
+        kind of problem."""
         now = time.monotonic()
-        if now - self._last_warning.get(topic, -_WARN_EVERY) >= _WARN_EVERY:
-            self._last_warning[topic] = now
+        if now - self._last_warning.get((topic, kind), -_WARN_EVERY) >= _WARN_EVERY:
+            self._last_warning[(topic, kind)] = now
             self.get_logger().warning(f'{topic}: {problem}')
 
     def _log_simulation_warning(self, message, category, *args, **kwargs):
@@ -286,6 +305,7 @@ class SimNode(Node):
             self.config.update(changed)
             self._event({'event': 'parameters', **changed})
             self.commands.command_timeout = self.config['command_timeout']
+            self.gate.publishers = self.config['lockstep_publishers']
             self.pacer.real_time_factor = self.config['real_time_factor']
             self.pacer.anchor(self.sim.time)
             return True
@@ -309,7 +329,6 @@ class SimNode(Node):
         self.sim.reset()
         self._event({'event': 'reset'})
         self.commands.reset(self.sim.torques)
-        self._released = False
         self.pacer.anchor(0.0)
         self.pacer.restart_window(0.0)
         self._started = (time.monotonic(), 0)
@@ -323,7 +342,6 @@ class SimNode(Node):
             self.get_logger().warning(notice)
         self.sim.step()
         self._last_step_wall = time.monotonic()
-        self._released = False
         self.publish_state()
 
     def _record_inbox(self):
@@ -340,14 +358,20 @@ class SimNode(Node):
             self._record_inbox()
             self.recorder.close()
 
-    def publish_state(self):
-        """Publish joint_states (and /clock) for the current step."""
+    def publish_state(self, again: bool = False):
+        """Publish joint_states (and /clock) for the current step; ``again``: the state the
+        lockstep gate waits on, once more and not recorded (it is in the bag already)."""
+        if not again:
+            self.gate.expect(self.sim_time_ns)
         sec, nanosec = divmod(self.sim_time_ns, 1_000_000_000)
         msg = self._state_msg
         msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
         msg.position = self.sim.angles.tobytes()
         msg.velocity = self.sim.velocities.tobytes()
         msg.effort = self.sim.efforts.tobytes()
+        if again:
+            self.state_pub.publish(msg)
+            return
         t_ns = self._bag_ns()
         self._publish_and_record(self.state_pub, msg, t_ns)
         if self.config['publish_clock']:
@@ -359,21 +383,60 @@ class SimNode(Node):
     def _wait_before_step(self) -> float:
         """Wall seconds until the next step is due (inf while paused or awaiting lockstep)."""
         mode = self.config['mode']
-        if self.paused or (mode == 'lockstep' and not self._released):
+        if self.paused:
+            return float('inf')
+        if mode == 'lockstep' and not self.gate.released:
+            self._keep_lockstep_alive()
             return float('inf')
         if mode == 'realtime':
             return self.pacer.wait(self.sim.time + self.scene.dt)
         return 0.0
 
+    def _keep_lockstep_alive(self):
+        """While lockstep waits: publish the waiting state again (for controllers that joined
+        late with volatile QoS or restarted) and say, now and then, who it waits on."""
+        if self.gate.republish_due():
+            self.publish_state(again=True)
+        waited = self.gate.report_due()
+        if waited is None:
+            return
+        publishers = self.get_publishers_info_by_topic(self._commands_topic)
+        names = ', '.join(sorted({p.node_name for p in publishers})) or 'none'
+        if not publishers:
+            why = 'no publisher is matched'
+        else:
+            why = (f'{len(publishers)} publisher(s) matched (nodes: {names}), '
+                   f'{self.gate.answers} of {self.gate.publishers} answers so far')
+        self.get_logger().warning(
+            f'lockstep: waiting {waited:.1f} s for {self._commands_topic} answering the state '
+            f'at t = {self.gate.stamp_ns * 1e-9:.6f} s: {why}')
+
     def _finished(self) -> bool:
         duration = self.config['duration']
         return duration > 0.0 and self.sim.step_count >= round(duration / self.scene.dt)
+
+    def _check_publishers(self):
+        """Lockstep: warn (once per count) when more controllers publish commands than the
+        gate waits for, since which of them drives a step then depends on timing."""
+        publishers = self.get_publishers_info_by_topic(self._commands_topic)
+        count = len(publishers)
+        if count <= self.gate.publishers or count == self._warned_publishers:
+            return
+        self._warned_publishers = count
+        names = ', '.join(sorted({p.node_name for p in publishers}))
+        self.get_logger().warning(
+            f'lockstep: {count} publishers on {self._commands_topic} (nodes: {names}) but '
+            f'lockstep_publishers is {self.gate.publishers}: a step goes on the first '
+            f'{self.gate.publishers} answer(s); set lockstep_publishers to the number of '
+            'controllers for a deterministic loop')
 
     def _check_rate(self):
         now = time.monotonic()
         if now - self._window_start < _RATE_WINDOW:
             return
         self._window_start = now
+        if self.config['mode'] == 'lockstep':
+            self._check_publishers()
         if self.config['mode'] == 'realtime' and not self.paused:
             achieved, wanted = self.pacer.achieved(self.sim.time), self.config['real_time_factor']
             if achieved < 0.95 * wanted:

@@ -46,6 +46,9 @@ PARAMETERS = {
                           'for joint_commands before the next', choices=MODES, live=True),
     'real_time_factor': ParameterSpec(1.0, 'simulated seconds per wall second in realtime mode',
                                       minimum=0.0, exclusive=True, live=True),
+    'lockstep_publishers': ParameterSpec(1, 'lockstep: answers to each state (one per '
+                                         'controller) before the next step', minimum=1,
+                                         live=True),
     'publish_clock': ParameterSpec(True, 'publish /clock every step', live=True),
     'record': ParameterSpec('', 'bag directory to record into (empty: no recording)'),
     'storage': ParameterSpec('mcap', 'bag storage', choices=STORAGES),

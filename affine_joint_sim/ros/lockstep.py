@@ -1,0 +1,75 @@
+"""The lockstep gate: when a lockstep node may compute its next step (design.md §12).
+
+After the node publishes the state stamped t_n it waits for ``publishers`` answers: command
+messages (``joint_commands``, ``effort_commands``) stamped t_n, or unstamped (stamp 0, which
+answers whatever state is current). A command stamped with another time answers a state that
+is gone (a controller that lags or restarted): it is dropped, counted and reported, so every
+step applies exactly the answers to its own state and the loop stays deterministic.
+
+While it waits, the gate says when to publish the waiting state again (a controller that
+subscribed late with volatile QoS, or restarted, gets it) and when to log that it is waiting.
+ROS-free: the node feeds it stamps and wall-clock time.
+"""
+
+import time
+
+__all__ = ['LockstepGate']
+
+
+class LockstepGate:
+    """Answers counted against the state the node waits on.
+
+    Args:
+        publishers: answers a step waits for (one per controller in the loop, >= 1).
+        republish_every: wall seconds [s] between two publications of a waiting state.
+        report_every: wall seconds [s] between two "still waiting" reports.
+        clock: wall clock in seconds (monotonic); injectable for tests.
+    """
+
+    def __init__(self, publishers: int = 1, republish_every: float = 0.2,
+                 report_every: float = 2.0, clock=time.monotonic):
+        self.publishers = publishers
+        self.republish_every = republish_every
+        self.report_every = report_every
+        self.clock = clock
+        self.stamp_ns = 0
+        self.answers = 0
+        self.stale = 0          # commands dropped for answering another state, since start
+        self._since = self._published_at = self._reported_at = clock()
+
+    def expect(self, stamp_ns: int) -> None:
+        """A state stamped ``stamp_ns`` was published: count answers to it from now on."""
+        self.stamp_ns = stamp_ns
+        self.answers = 0
+        self._since = self._published_at = self._reported_at = self.clock()
+
+    def answer(self, stamp_ns: int) -> bool:
+        """Count a command stamped ``stamp_ns`` (0: unstamped); False if it answers another
+        state (it is then stale: drop it)."""
+        if stamp_ns not in (0, self.stamp_ns):
+            self.stale += 1
+            return False
+        self.answers += 1
+        return True
+
+    @property
+    def released(self) -> bool:
+        """Whether the next step may be computed."""
+        return self.answers >= self.publishers
+
+    def republish_due(self) -> bool:
+        """Whether the waiting state should be published again now (then it restarts the
+        interval)."""
+        now = self.clock()
+        if self.released or now - self._published_at < self.republish_every:
+            return False
+        self._published_at = now
+        return True
+
+    def report_due(self) -> float | None:
+        """Seconds waited so far, if a "still waiting" report is due now, else None."""
+        now = self.clock()
+        if self.released or now - self._reported_at < self.report_every:
+            return None
+        self._reported_at = now
+        return now - self._since

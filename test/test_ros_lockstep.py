@@ -1,0 +1,154 @@
+"""Lockstep with controllers written the usual way (design.md §12): late, restarted and
+several controllers. The gate is tested on its own against a fake clock, the node over real
+DDS with controllers in other processes; waits are on conditions (states seen, log lines
+written), never fixed sleeps."""
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from affine_joint_sim.ros.lockstep import LockstepGate
+from helpers import ros_client
+from helpers.ros_client import DT_NS, Inbox, stamp_ns
+
+CONTROLLER = Path(__file__).resolve().parent / 'helpers' / 'plain_controller.py'
+
+
+class FakeClock:
+    def __init__(self):
+        self.now = 10.0
+
+    def __call__(self):
+        return self.now
+
+
+def test_gate_counts_answers_to_the_waiting_state_and_drops_stale_ones():
+    gate = LockstepGate(publishers=2, clock=FakeClock())
+    gate.expect(30 * DT_NS)
+    assert not gate.released
+    assert gate.answer(30 * DT_NS) and not gate.released
+    assert not gate.answer(29 * DT_NS) and gate.stale == 1      # answers a state that is gone
+    assert gate.answer(0) and gate.released                      # unstamped: the current state
+    gate.expect(31 * DT_NS)
+    assert not gate.released and gate.answers == 0
+
+
+def test_gate_republishes_and_reports_while_it_waits():
+    clock = FakeClock()
+    gate = LockstepGate(publishers=1, republish_every=0.2, report_every=2.0, clock=clock)
+    gate.expect(0)
+    assert not gate.republish_due() and gate.report_due() is None
+    clock.now += 0.25
+    assert gate.republish_due() and not gate.republish_due()
+    clock.now += 2.0
+    assert gate.report_due() == pytest.approx(2.25) and gate.report_due() is None
+    gate.answer(0)
+    clock.now += 5.0
+    assert not gate.republish_due() and gate.report_due() is None
+
+
+class LoggedNode:
+    """The node in a child process whose output goes to a file the test can watch."""
+
+    def __init__(self, tmp_path, ros_node, wait_for, *flags):
+        self.log = tmp_path / f'node_{time.monotonic_ns()}.log'
+        self.process = subprocess.Popen(
+            [sys.executable, '-m', 'affine_joint_sim.cli', 'run', *map(str, flags)],
+            stdout=self.log.open('w'), stderr=subprocess.STDOUT)
+        assert wait_for(lambda: self.process.poll() is not None or (
+            ros_node.count_publishers('/joint_states') > 0 and
+            '/affine_joint_sim/step' in ros_client.node_services(ros_node)), timeout=30.0)
+        assert self.process.poll() is None, self.log.read_text()
+
+    def said(self, text):
+        return text in self.log.read_text()
+
+    def stop(self):
+        if self.process.poll() is None:
+            self.process.send_signal(subprocess.signal.SIGINT)
+        try:
+            self.process.wait(timeout=10.0)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        return self.log.read_text()
+
+
+@pytest.fixture
+def controllers():
+    """Return `start(joint, target, *flags) -> Popen` of plain controllers, all stopped at the
+    end."""
+    started = []
+
+    def start(*args):
+        process = subprocess.Popen([sys.executable, str(CONTROLLER), *map(str, args)],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        started.append(process)
+        return process
+
+    yield start
+    for process in started:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+def _latest_stamp(states):
+    return max((stamp_ns(m) for m in states.messages), default=-1)
+
+
+def test_a_late_then_restarted_volatile_controller_drives_the_loop(
+        tmp_path, ros_node, wait_for, controllers):
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep')
+    states = Inbox(ros_node, 'joint_states')
+    # nobody answers: the node says it waits, and publishes its state again meanwhile
+    assert wait_for(lambda: node.said('lockstep: waiting'), timeout=15.0)
+    assert node.said('no publisher is matched')
+    assert len(states.messages) >= 2 and _latest_stamp(states) == 0
+    first = controllers('shoulder', 0.5, '--name', 'late_controller')
+    assert wait_for(lambda: _latest_stamp(states) >= 20 * DT_NS, timeout=20.0)
+    first.kill()
+    first.wait()
+    stalled = _latest_stamp(states)
+    controllers('shoulder', 0.5, '--unstamped', '--name', 'restarted_controller')
+    assert wait_for(lambda: _latest_stamp(states) >= stalled + 20 * DT_NS, timeout=20.0)
+    assert 'Traceback' not in node.stop()
+
+
+def _two_controller_run(tmp_path, ros_node, wait_for, controllers, publishers):
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--scene', 'double_pendulum', '--mode',
+                      'lockstep', '--lockstep-publishers', publishers, '--duration', '0.3')
+    states = Inbox(ros_node, 'joint_states')
+    controllers('shoulder', 0.6, '--name', 'shoulder_controller')
+    controllers('elbow', -0.4, '--name', 'elbow_controller')
+    assert wait_for(lambda: node.process.poll() is not None, timeout=60.0)
+    output = node.stop()
+    assert 'Traceback' not in output and '30 steps' in output, output
+    by_stamp = {}
+    for m in states.messages:
+        by_stamp.setdefault(stamp_ns(m), (tuple(m.position), tuple(m.velocity),
+                                          tuple(m.effort)))
+    return [by_stamp[k * DT_NS] for k in range(31)], output
+
+
+def test_two_controllers_give_the_same_run_every_time(tmp_path, ros_node, wait_for,
+                                                      controllers):
+    first, output = _two_controller_run(tmp_path, ros_node, wait_for, controllers, 2)
+    second, _ = _two_controller_run(tmp_path, ros_node, wait_for, controllers, 2)
+    assert first == second
+    assert first[-1][2][0] != 0.0 and first[-1][2][1] != 0.0      # both controllers acted
+    assert 'publishers on' not in output
+
+
+def test_more_controllers_than_lockstep_publishers_is_said(
+        tmp_path, ros_node, wait_for, controllers):
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--scene', 'double_pendulum', '--mode',
+                      'lockstep')
+    controllers('shoulder', 0.6, '--name', 'shoulder_controller')
+    controllers('elbow', -0.4, '--name', 'elbow_controller')
+    assert wait_for(lambda: node.said('2 publishers on /joint_commands'), timeout=30.0)
+    output = node.stop()
+    assert 'elbow_controller' in output and 'shoulder_controller' in output
