@@ -78,13 +78,13 @@ def _echo(args, ros_args) -> int:
 def _controller(args, ros_args) -> int:
     from affine_joint_sim.ros import controller
     return controller.main(dict(args.target), args.kp, args.kd, args.effort_limit,
-                           args.namespace)
+                           args.namespace, interface=args.interface)
 
 
 def _demo(args, ros_args) -> int:
     from affine_joint_sim.ros import demo
     return demo.run_demo(args.scene, dict(args.target), args.duration, args.mode, args.record,
-                         args.kp, args.kd)
+                         args.kp, args.kd, interface=args.interface)
 
 
 def _replay(args, ros_args) -> int:
@@ -95,6 +95,15 @@ def _replay(args, ros_args) -> int:
 def _bench(args, ros_args) -> int:
     from affine_joint_sim import bench
     return bench.main(args)
+
+
+def _add_interface(parser):
+    parser.add_argument('--interface', default='joint_commands',
+                        choices=('joint_commands', 'effort_commands'),
+                        help='how the controller sends torques: joint_commands (JointState, '
+                             'name + effort, stamped with the state it answers) or '
+                             'effort_commands (Float64MultiArray, one value per joint in '
+                             'joint_states order: ros2_control\'s JointGroupEffortController)')
 
 
 def _add_run(commands):
@@ -166,6 +175,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_gains(controller)
     controller.add_argument('--effort-limit', type=float, default=float('inf'),
                             help='largest |torque| sent [N·m]')
+    _add_interface(controller)
     _add_namespace(controller)
     controller.set_defaults(func=_controller)
 
@@ -182,6 +192,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help='node mode (default: %(default)s: deterministic)')
     demo.add_argument('--record', type=Path, default=None, help='bag directory')
     _add_gains(demo)
+    _add_interface(demo)
     demo.set_defaults(func=_demo)
 
     replay = commands.add_parser(

@@ -11,7 +11,10 @@ class FakeStepper:
     """Records what the buffer writes (the Stepper's set_torque/set_enabled signature)."""
 
     def __init__(self):
-        self.torque, self.enabled = {}, {}
+        self.torque, self.enabled, self.target = {}, {}, {}
+
+    def set_target(self, name, value):
+        self.target[name] = value
 
     def set_torque(self, name, value):
         self.torque[name] = value
@@ -88,3 +91,24 @@ def test_take_dispatches_by_topic_and_names_unknown_joints():
     assert 'not finite' in buffer.take('joint_torque', 'a', Msg(data=math.nan))[0]
     buffer.apply(sim, 0.0)
     assert sim.torque == {'a': 1.0, 'b': 2.0} and sim.enabled == {'b': False}
+
+
+def test_effort_and_position_arrays_follow_command_joints():
+    buffer = CommandBuffer(['a', 'b', 'c'], array_joints=['c', 'a'], drive_joints=['a'])
+    sim = FakeStepper()
+    assert buffer.effort_array([1.0, 2.0]) == []
+    assert buffer.position_array([0.3, 0.4]) == ["joint 'c' has no drive: its position "
+                                                 'commands are ignored (said once)']
+    assert buffer.position_array([0.3, 0.5]) == []            # said once only
+    buffer.apply(sim, 0.0)
+    assert sim.torque == {'c': 1.0, 'a': 2.0} and sim.target == {'a': 0.5}
+
+
+def test_arrays_of_the_wrong_length_or_non_finite_entries_are_dropped():
+    buffer = CommandBuffer(['a', 'b'], drive_joints=['a', 'b'])
+    sim = FakeStepper()
+    assert buffer.effort_array([1.0]) == [
+        '1 efforts but command_joints has 2 (a, b): message dropped']
+    assert 'not finite' in buffer.position_array([math.nan, 0.2])[0]
+    buffer.apply(sim, 0.0)
+    assert sim.torque == {} and sim.target == {'b': 0.2}

@@ -3,6 +3,8 @@
 import subprocess
 import sys
 
+import pytest
+
 from helpers.ros_client import Inbox
 
 
@@ -56,8 +58,10 @@ def test_tools_reject_bad_values_without_a_node():
     assert echo.returncode == 1 and 'no message on /joint_states' in echo.stderr
 
 
-def test_demo_closes_the_loop_and_reports(tmp_path):
-    done = cli('demo', '--duration', 2.0, '--target', 'shoulder=0.8', timeout=120)
+@pytest.mark.parametrize('interface', ['joint_commands', 'effort_commands'])
+def test_demo_closes_the_loop_and_reports(tmp_path, interface):
+    done = cli('demo', '--duration', 2.0, '--target', 'shoulder=0.8', '--interface', interface,
+               timeout=120)
     assert done.returncode == 0, done.stdout + done.stderr
     out = done.stdout
     assert '200 steps, 2.000 s simulated' in out and 'real-time factor' in out, out

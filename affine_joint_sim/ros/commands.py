@@ -12,18 +12,25 @@ _TIME_EPS = 1e-9    # [s]: sim times are step counts × dt, so 0.8 - 0.6 must no
 
 
 class CommandBuffer:
-    """Pending torques and enables for the next step, and the command timeout.
+    """Pending torques, enables and drive targets for the next step, and the command timeout.
 
     Args:
-        joint_names: the scene's joints, in order.
+        joint_names: the joints that take commands (the scene's moving joints), in order.
         command_timeout: seconds of simulated time [s] after a joint's last torque command
             at which its torque falls to 0; 0 holds the last command forever.
+        array_joints: the joints of ``effort_commands``/``position_commands`` arrays, in
+            order (ros2_control's ``joints`` of a group controller); default ``joint_names``.
+        drive_joints: the joints that have a drive (take a position command).
     """
 
-    def __init__(self, joint_names: list[str], command_timeout: float = 0.0):
+    def __init__(self, joint_names: list[str], command_timeout: float = 0.0,
+                 array_joints: list[str] | None = None, drive_joints=()):
         self.joint_names = list(joint_names)
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.command_timeout = command_timeout
+        self.array_joints = list(array_joints or joint_names)
+        self.drive_joints = set(drive_joints)
+        self._no_drive_said: set[str] = set()
         self.reset([0.0] * len(self.joint_names))
 
     def reset(self, torques, sim_time: float = 0.0) -> None:
@@ -31,6 +38,7 @@ class CommandBuffer:
         ``sim_time`` [s]."""
         self._torque: dict[int, float] = {}
         self._enabled: dict[int, bool] = {}
+        self._target: dict[str, float] = {}
         self._last_command = [sim_time] * len(self.joint_names)
         self._held = [float(t) != 0.0 for t in torques]     # a non-zero torque that can time out
 
@@ -64,13 +72,53 @@ class CommandBuffer:
         problems = [self.torque(name, effort) for name, effort in zip(names, efforts)]
         return [p for p in problems if p is not None]
 
+    def _array(self, values, what: str) -> str | None:
+        if len(values) == len(self.array_joints):
+            return None
+        return (f'{len(values)} {what} but command_joints has {len(self.array_joints)} '
+                f'({", ".join(self.array_joints)}): message dropped')
+
+    def effort_array(self, values) -> list[str]:
+        """Queue an ``effort_commands`` array: ``values[i]`` [N·m | N] for
+        ``array_joints[i]``; returns the reasons for what was dropped."""
+        problem = self._array(values, 'efforts')
+        if problem:
+            return [problem]
+        problems = [self.torque(name, v) for name, v in zip(self.array_joints, values)]
+        return [p for p in problems if p is not None]
+
+    def position_array(self, values) -> list[str]:
+        """Queue a ``position_commands`` array: drive targets [rad | m] for the joints of
+        ``array_joints`` that have a drive (the others are said once); returns the reasons
+        for what was dropped."""
+        problem = self._array(values, 'positions')
+        if problem:
+            return [problem]
+        problems = []
+        for name, value in zip(self.array_joints, values):
+            if name not in self.drive_joints:
+                if name not in self._no_drive_said:
+                    self._no_drive_said.add(name)
+                    problems.append(f'joint {name!r} has no drive: its position commands are '
+                                    'ignored (said once)')
+            elif not math.isfinite(value):
+                problems.append(f'position {value!r} for joint {name!r} is not finite: dropped')
+            else:
+                self._target[name] = float(value)
+        return problems
+
     def take(self, key: str, joint: str | None, msg) -> list[str]:
         """Queue a command message as it arrived on the topic ``key`` of topics.yaml
         (``joint_torque`` / ``joint_enable``, ``joint_force`` / ``joint_force_enable`` for
-        ``joint``, or ``joint_commands``); returns the reasons for what was dropped. The node
-        and the bag replay both feed commands here."""
+        ``joint``, ``joint_commands``, ``effort_commands`` or ``position_commands``); returns
+        the reasons for what was dropped. The node and the bag replay both feed commands
+        here."""
         if key == 'joint_commands':
             return self.joint_commands(list(msg.name), list(msg.effort))
+        if key == 'effort_commands':
+            return self.effort_array(list(msg.data))
+        if key == 'position_commands':
+            return self.position_array(list(msg.data))
         queue = self.torque if key in ('joint_torque', 'joint_force') else self.enable
         problem = queue(joint, msg.data)
         return [] if problem is None else [problem]
@@ -87,8 +135,11 @@ class CommandBuffer:
             self._held[k] = value != 0.0
         for k, flag in self._enabled.items():
             stepper.set_enabled(self.joint_names[k], flag)
+        for name, target in self._target.items():
+            stepper.set_target(name, target)
         self._torque.clear()
         self._enabled.clear()
+        self._target.clear()
         if self.command_timeout <= 0.0:
             return []
         notices = []

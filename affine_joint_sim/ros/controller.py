@@ -1,9 +1,13 @@
 """A demo PD controller in its own process: joint targets → torques over ``joint_commands``.
 
-On every ``joint_states`` message it answers with one ``joint_commands`` message, the torques
+On every ``joint_states`` message it answers with one command, the torques
 τ = kp (θ* − θ) − kd ω for the joints it has targets for, so against a ``lockstep`` node the
-closed loop is deterministic. Being PD (no gravity model, no integral term), it settles
-``m g l sin θ* / kp`` short of a target held against gravity.
+closed loop is deterministic. The command goes out on ``joint_commands`` (a JointState: names
+and efforts, stamped with the state it answers) or, as ros2_control's JointGroupEffortController
+does, on ``effort_commands`` (a Float64MultiArray: one effort per joint of ``joint_states``, 0
+for joints without a target; the node's ``command_joints`` default has that order). Being PD
+(no gravity model, no integral term), it settles ``m g l sin θ* / kp`` short of a target held
+against gravity.
 """
 
 import numpy as np
@@ -29,16 +33,19 @@ class PDController(Node):
     """
 
     def __init__(self, targets: dict[str, float], kp: float = 100.0, kd: float = 10.0,
-                 effort_limit: float = np.inf, **node_kwargs):
+                 effort_limit: float = np.inf, interface: str = 'joint_commands',
+                 **node_kwargs):
         super().__init__('pd_controller', **node_kwargs)
         self.targets, self.kp, self.kd, self.effort_limit = dict(targets), kp, kd, effort_limit
+        self.interface = interface
         topics = load_topics()
-        commands = topics['joint_commands']
+        commands = topics[interface]
         states = topics['joint_states']
         self.publisher = self.create_publisher(commands.msg_class, commands.name(), commands.qos)
         self.create_subscription(states.msg_class, states.name(), self._on_state, states.qos)
         self._command = commands.msg_class()
-        self._command.name = list(self.targets)
+        if interface == 'joint_commands':
+            self._command.name = list(self.targets)
         self.last_state = None
         self.states_received = 0
 
@@ -55,8 +62,13 @@ class PDController(Node):
         target = np.fromiter(self.targets.values(), float)
         tau = np.clip(self.kp * (target - angle) - self.kd * velocity,
                       -self.effort_limit, self.effort_limit)
-        self._command.header.stamp = msg.header.stamp
-        self._command.effort = tau.tobytes()
+        if self.interface == 'joint_commands':
+            self._command.header.stamp = msg.header.stamp
+            self._command.effort = tau.tobytes()
+        else:
+            efforts = np.zeros(len(msg.name))
+            efforts[rows] = tau
+            self._command.data = efforts.tobytes()
         self.publisher.publish(self._command)
         self.last_state = msg
         self.states_received += 1
@@ -77,10 +89,11 @@ class PDController(Node):
 
 
 def main(targets: dict[str, float], kp: float, kd: float, effort_limit: float = np.inf,
-         namespace: str = '', args=None) -> int:
+         namespace: str = '', args=None, interface: str = 'joint_commands') -> int:
     """Run the controller until SIGINT/SIGTERM, then print its report on stdout."""
     rclpy.init(args=args)
-    node = PDController(targets, kp, kd, effort_limit, namespace=namespace)
+    node = PDController(targets, kp, kd, effort_limit, interface=interface,
+                        namespace=namespace)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

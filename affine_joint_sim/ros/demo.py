@@ -20,13 +20,15 @@ def _start(*args) -> subprocess.Popen:
 
 
 def run_demo(scene: str, targets: dict[str, float], duration: float, mode: str,
-             record: Path | None, kp: float, kd: float) -> int:
+             record: Path | None, kp: float, kd: float,
+             interface: str = 'joint_commands') -> int:
     """Run node + controller; print final angles vs targets, steps/s, real-time factor, bag.
 
     Returns the node's exit status.
     """
     target_args = [a for joint, angle in targets.items() for a in ('--target', f'{joint}={angle}')]
-    controller = _start('controller', *target_args, '--kp', kp, '--kd', kd)
+    controller = _start('controller', *target_args, '--kp', kp, '--kd', kd, '--interface',
+                        interface)
     node_args = ['run', '--scene', scene, '--mode', mode, '--duration', duration]
     if record is not None:
         node_args += ['--record', record]

@@ -34,11 +34,12 @@ from std_srvs.srv import SetBool, Trigger
 
 from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
+from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.lockstep import LockstepGate
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check
-from affine_joint_sim.ros.topics import JOINT_COMMAND_KEYS, load_topics
+from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, load_topics
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import SimulationWarning, Stepper
 
@@ -73,8 +74,10 @@ class SimNode(Node):
             self.sim = Stepper(self.scene, device=self.config['device'])
         except (ValueError, RuntimeError) as exc:
             raise ConfigError(f"parameter 'device': {exc}") from None
-        self.commands = CommandBuffer(self.sim.command_joint_names,
-                                      self.config['command_timeout'])
+        self.commands = CommandBuffer(
+            self.sim.command_joint_names, self.config['command_timeout'],
+            array_joints=command_joints(self.config['command_joints'], self.sim),
+            drive_joints=[j.name for j in self.scene.joints if j.drive is not None])
         self.pacer = Pacer(self.config['real_time_factor'])
         self.topics = load_topics()
         self.paused = False
@@ -100,7 +103,8 @@ class SimNode(Node):
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
             self._publish_and_record(self.scene_pub, scene_msg, 0)
             self._event({'event': 'start', **{k: self.config[k] for k in
-                                              ('mode', 'device', 'command_timeout')}})
+                                              ('mode', 'device', 'command_timeout')},
+                         'command_joints': self.commands.array_joints})
             if self.recorder is not None:
                 self.recorder.flush()       # metadata.yaml and the scene exist from now on
         except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
@@ -134,8 +138,7 @@ class SimNode(Node):
                                                t['joint_states'].name(), t['joint_states'].qos)
         self.clock_pub = self.create_publisher(t['clock'].msg_class, t['clock'].name(),
                                                t['clock'].qos)
-        self._state_msg = t['joint_states'].msg_class()
-        self._state_msg.name = self.sim.joint_names
+        self._joint_states = JointStateFiller(self.sim, t['joint_states'].msg_class)
         self._clock_msg = t['clock'].msg_class()
         # Latched: the scene as run, every default spelled out, for late joiners and bags.
         self.scene_pub = self.create_publisher(t['scene'].msg_class, t['scene'].name(),
@@ -145,7 +148,8 @@ class SimNode(Node):
         for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
             for key in JOINT_COMMAND_KEYS.get(kind, ()):
                 self._subscribe(key, joint)
-        self._subscribe('joint_commands', None)
+        for key in ANSWER_KEYS:
+            self._subscribe(key, None)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
@@ -157,15 +161,17 @@ class SimNode(Node):
         topic = self.topics[key]
         name = self.resolve_topic_name(topic.name(joint))
         msg_class = topic.msg_class
-        answers = key == 'joint_commands'
-        if answers:
+        answers = key in ANSWER_KEYS
+        if key == 'joint_commands':
             self._commands_topic = name
 
         def receive(raw):
             msg = deserialize_message(raw, msg_class)
             with self._wake:
                 if answers and self.config['mode'] == 'lockstep':
-                    stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+                    header = getattr(msg, 'header', None)    # arrays carry no stamp
+                    stamp = header.stamp.sec * 1_000_000_000 + header.stamp.nanosec \
+                        if header is not None else 0
                     if not self.gate.answer(stamp):
                         self._reject(name, f'a command stamped t = {stamp * 1e-9:.6f} s answers '
                                      f'no waiting state (the node waits on t = '
@@ -328,7 +334,7 @@ class SimNode(Node):
             self._epoch_ns += self.sim_time_ns + self._dt_ns
         self.sim.reset()
         self._event({'event': 'reset'})
-        self.commands.reset(self.sim.torques)
+        self.commands.reset(self._joint_states.select(self.sim.torques))
         self.pacer.anchor(0.0)
         self.pacer.restart_window(0.0)
         self._started = (time.monotonic(), 0)
@@ -363,19 +369,15 @@ class SimNode(Node):
         lockstep gate waits on, once more and not recorded (it is in the bag already)."""
         if not again:
             self.gate.expect(self.sim_time_ns)
-        sec, nanosec = divmod(self.sim_time_ns, 1_000_000_000)
-        msg = self._state_msg
-        msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
-        msg.position = self.sim.angles.tobytes()
-        msg.velocity = self.sim.velocities.tobytes()
-        msg.effort = self.sim.efforts.tobytes()
+        msg = self._joint_states.fill(self.sim, self.sim_time_ns)
         if again:
             self.state_pub.publish(msg)
             return
         t_ns = self._bag_ns()
         self._publish_and_record(self.state_pub, msg, t_ns)
         if self.config['publish_clock']:
-            self._clock_msg.clock.sec, self._clock_msg.clock.nanosec = sec, nanosec
+            clock = self._clock_msg.clock
+            clock.sec, clock.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
             self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
         if self.recorder is not None:
             self.recorder.flush_if_due()
@@ -502,6 +504,19 @@ class SimNode(Node):
     def destroy_node(self):
         warnings.showwarning = self._previous_showwarning
         return super().destroy_node()
+
+
+def command_joints(value: str, sim) -> list[str]:
+    """The joints of the command arrays from parameter ``command_joints`` (comma-separated;
+    empty: every moving joint in scene order). Raises ConfigError naming the valid ones."""
+    valid = sim.command_joint_names
+    names = [n.strip() for n in value.split(',') if n.strip()] or valid
+    wrong = [n for n in names if n not in valid]
+    if wrong or len(set(names)) != len(names):
+        raise ConfigError(f"parameter 'command_joints': {', '.join(wrong) or 'a repeated joint'}"
+                          f" is not a moving joint of the scene (valid, once each: "
+                          f"{', '.join(valid)})")
+    return names
 
 
 def main(args=None, parameter_overrides=None) -> int:

@@ -49,6 +49,9 @@ PARAMETERS = {
     'lockstep_publishers': ParameterSpec(1, 'lockstep: answers to each state (one per '
                                          'controller) before the next step', minimum=1,
                                          live=True),
+    'command_joints': ParameterSpec('', 'joints of effort_commands/position_commands arrays, '
+                                    'comma-separated, in order (empty: every moving joint in '
+                                    'scene order)'),
     'publish_clock': ParameterSpec(True, 'publish /clock every step', live=True),
     'record': ParameterSpec('', 'bag directory to record into (empty: no recording)'),
     'storage': ParameterSpec('mcap', 'bag storage', choices=STORAGES),

@@ -24,6 +24,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.rosbag2 import Reader
 
 from affine_joint_sim.ros.commands import CommandBuffer
+from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.topics import COMMAND_KEYS, load_topics, message_class
 from affine_joint_sim.scene import Scene, SceneError
@@ -162,21 +163,25 @@ class _Resimulation:
         except (ValueError, RuntimeError) as exc:
             raise ReplayError(f'--device {device}: {exc}') from None
         self.dt_ns = round(scene.dt * 1e9)
-        self.wrapped = np.array([j.angle_mode == 'wrapped' for j in scene.joints])
-        self.buffer = CommandBuffer(self.sim.command_joint_names)
+        self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'))
+        self.wrapped = self.states.wrapped
+        self.buffer = CommandBuffer(
+            self.sim.command_joint_names,
+            drive_joints=[j.name for j in scene.joints if j.drive is not None])
         self.on_state = on_state
         self.reset(0)
 
     def reset(self, epoch_ns: int):
         """Initial state; bag time ``epoch_ns`` [ns] is its t = 0. Pending commands are dropped."""
         self.sim.reset()
-        self.buffer.reset(self.sim.torques)
+        self.buffer.reset(self.states.select(self.sim.torques))
         self.pending: list[_Message] = []
         self.epoch_ns = epoch_ns
         self.previous = self.current = self._sample()
 
     def _sample(self):
-        sample = self.sim.step_count * self.dt_ns, self.sim.angles, self.sim.velocities
+        sample = (self.sim.step_count * self.dt_ns, self.states.select(self.sim.angles),
+                  self.states.select(self.sim.velocities))
         if self.on_state is not None:
             self.on_state(self.epoch_ns + sample[0], sample[0], self.sim)
         return sample
@@ -218,7 +223,7 @@ def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
     scene = _scene_of(bag, scene_path)
     writer = _OutBag(out, storage, bag, scene) if out is not None else None
     run = _Resimulation(scene, device, writer.state if writer else None)
-    names = run.sim.joint_names
+    names = run.states.names
     divergence = Divergence(names, np.zeros(len(names)), np.zeros(len(names)))
     try:
         _replay_messages(bag, run, writer, divergence, scene)
@@ -230,7 +235,7 @@ def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
 
 def _replay_messages(bag, run, writer, divergence, scene):
     """Feed the bag's messages to ``run`` in order; accumulate ``divergence``."""
-    names = run.sim.joint_names
+    names = run.states.names
     started = False
     for m in bag.messages:
         if m.kind in COMMAND_KEYS:
@@ -246,11 +251,13 @@ def _replay_messages(bag, run, writer, divergence, scene):
                 run.reset(m.t_ns)
             if 'command_timeout' in event:
                 run.buffer.command_timeout = float(event['command_timeout'])
+            if 'command_joints' in event:
+                run.buffer.array_joints = list(event['command_joints'])
         elif m.kind == 'joint_states':
             msg = deserialize_message(m.raw, message_class(m.msgtype))
             if list(msg.name) != names:
                 raise ReplayError(f'{bag.path}: joint_states name {list(msg.name)}, but the '
-                                  f'scene {scene.name!r} has joints {names}')
+                                  f'scene {scene.name!r} has moving joints {names}')
             angle, velocity = run.at(msg.header.stamp.sec * 1_000_000_000 +
                                      msg.header.stamp.nanosec)
             d_angle = angle - np.asarray(msg.position)
@@ -285,7 +292,7 @@ class _OutBag:
             raise ReplayError(f'--out: {exc}') from None
         self.recorder.write(scene_topic, 0, serialize_message(
             topics['scene'].msg_class(data=scene.to_yaml())))
-        self.msg = topics['joint_states'].msg_class(name=[j.name for j in scene.joints])
+        self.states = None
 
     @staticmethod
     def _name(bag, key, topics):
@@ -294,12 +301,10 @@ class _OutBag:
 
     def state(self, bag_ns, stamp_ns, sim):
         """Write the stepper's current joint state (``stamp_ns`` since the last reset)."""
-        self.msg.header.stamp.sec, self.msg.header.stamp.nanosec = divmod(stamp_ns,
-                                                                          1_000_000_000)
-        self.msg.position = sim.angles.tobytes()
-        self.msg.velocity = sim.velocities.tobytes()
-        self.msg.effort = sim.efforts.tobytes()
-        self.recorder.write(self.states_topic, bag_ns, serialize_message(self.msg))
+        if self.states is None:
+            self.states = JointStateFiller(sim, message_class('sensor_msgs/msg/JointState'))
+        self.recorder.write(self.states_topic, bag_ns,
+                            serialize_message(self.states.fill(sim, stamp_ns)))
 
 
 def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',

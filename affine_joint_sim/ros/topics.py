@@ -13,13 +13,16 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from affine_joint_sim.resources import config_dir
 
-__all__ = ['Topic', 'TOPIC_KEYS', 'COMMAND_KEYS', 'JOINT_COMMAND_KEYS', 'load_topics',
-           'message_class']
+__all__ = ['Topic', 'TOPIC_KEYS', 'COMMAND_KEYS', 'ANSWER_KEYS', 'JOINT_COMMAND_KEYS',
+           'load_topics', 'message_class']
 
 TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
-              'joint_commands', 'joint_states', 'clock', 'scene', 'events')
+              'joint_commands', 'effort_commands', 'position_commands', 'joint_states', 'clock',
+              'scene', 'events')
+# Commands that answer a lockstep state (several joints at once).
+ANSWER_KEYS = ('joint_commands', 'effort_commands', 'position_commands')
 COMMAND_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
-                'joint_commands')
+                *ANSWER_KEYS)
 # The per-joint command topics of each joint type: (value [N·m | N], on/off switch).
 JOINT_COMMAND_KEYS = {'revolute': ('joint_torque', 'joint_enable'),
                       'prismatic': ('joint_force', 'joint_force_enable')}

@@ -1,0 +1,44 @@
+"""The ``joint_states`` message of a Stepper: one filler for the node, the bag replay and its
+``--out`` bag, so all three publish and compare the same thing.
+
+It lists the joints that move (revolute and prismatic, in scene order), as ros2_control's
+joint_state_broadcaster does; fixed joints have no state (robot_state_publisher takes them
+from the robot description). position = angle [rad] or distance [m], velocity [rad/s | m/s],
+effort = applied torque [N·m] or force [N]; the stamp is the simulated time.
+"""
+
+import numpy as np
+
+__all__ = ['JointStateFiller']
+
+
+class JointStateFiller:
+    """Fills a ``sensor_msgs/JointState`` from a Stepper's current step.
+
+    Args:
+        sim: the Stepper.
+        msg_class: the JointState class (``topics['joint_states'].msg_class``).
+    """
+
+    def __init__(self, sim, msg_class):
+        self.names = sim.command_joint_names
+        moving = [k for k, kind in enumerate(sim.joint_types) if kind != 'fixed']
+        # without fixed joints every array is sent as it is (no copy per step)
+        self.index = None if len(moving) == len(sim.joint_types) else np.array(moving)
+        self.wrapped = np.array([j.angle_mode == 'wrapped' and j.type == 'revolute'
+                                 for j in sim.scene.joints])[moving]
+        self.msg = msg_class()
+        self.msg.name = self.names
+
+    def select(self, values: np.ndarray) -> np.ndarray:
+        """The entries of a per-joint array that the message carries."""
+        return values if self.index is None else values[self.index]
+
+    def fill(self, sim, stamp_ns: int):
+        """The message for ``sim``'s current state at stamp ``stamp_ns`` [ns]."""
+        msg = self.msg
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+        msg.position = self.select(sim.angles).tobytes()
+        msg.velocity = self.select(sim.velocities).tobytes()
+        msg.effort = self.select(sim.efforts).tobytes()
+        return msg
