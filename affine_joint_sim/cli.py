@@ -30,6 +30,16 @@ def _assignment(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(f'expected JOINT=NUMBER, got {text!r}') from None
 
 
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+        if not 0.0 <= value < float('inf'):
+            raise ValueError
+        return value
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected a finite number >= 0, got {text!r}') from None
+
+
 def _positive(text: str) -> float:
     try:
         value = float(text)
@@ -201,10 +211,11 @@ def build_parser() -> argparse.ArgumentParser:
                     'recorded joint states (exit 1 above --tol, 2 on errors); with --scene, '
                     'a what-if against another scene; with --publish, play its commands on ROS.')
     replay.add_argument('bag', type=Path, help='rosbag2 directory (or one .mcap/.db3 file)')
-    replay.add_argument('--tol', type=float, default=1e-9,
+    replay.add_argument('--tol', type=_non_negative, default=1e-9,
                         help='largest |Δθ| [rad] or |Δω| [rad/s] accepted (default: %(default)g, '
                              'for the same device and precision)')
-    replay.add_argument('--scene', help='replay against this scene file instead (what-if)')
+    replay.add_argument('--scene', help='replay against this scene file or packaged scene '
+                        'instead (what-if)')
     replay.add_argument('--device', default='cpu', help='Warp device (default: cpu)')
     replay.add_argument('--out', type=Path, help='write the re-simulated run as a bag here')
     replay.add_argument('--storage', default='mcap', choices=STORAGES,

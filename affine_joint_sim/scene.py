@@ -11,15 +11,26 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationError,
+                      model_validator)
 
 __all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Limit', 'Drive', 'Shape', 'Solver',
            'Orientation']
 
 NAME_PATTERN = r'^[A-Za-z_][A-Za-z0-9_]*$'
 
-PositiveFloat = Annotated[float, Field(gt=0.0)]
-Vec3 = tuple[float, float, float]
+
+
+def _not_a_boolean(value):
+    if isinstance(value, bool):
+        raise ValueError('must be a number, not a boolean')
+    return value
+
+
+# YAML reads `true` as a boolean, which pydantic would take as 1.0: a number must be a number
+Number = Annotated[float, BeforeValidator(_not_a_boolean)]
+PositiveFloat = Annotated[Number, Field(gt=0.0)]
+Vec3 = tuple[Number, Number, Number]
 
 
 class SceneError(ValueError):
@@ -68,7 +79,7 @@ class Orientation(_Strict):
     ``quat_xyzw``."""
 
     rpy: Vec3 | None = None
-    quat_xyzw: tuple[float, float, float, float] | None = None
+    quat_xyzw: tuple[Number, Number, Number, Number] | None = None
 
     @model_validator(mode='after')
     def _exactly_one(self):
@@ -108,8 +119,8 @@ class Limit(_Strict):
     a cubic penalty inside the implicit step, s((x−u)/(u−l))³ above u, s((l−x)/(u−l))³ below l
     (s|x−l|³ when u = l); its physical stiffness scales with 1/dt² like the joint's."""
 
-    lower: float
-    upper: float
+    lower: Number
+    upper: Number
     strength: PositiveFloat = 1.0e3
 
     @model_validator(mode='after')
@@ -123,7 +134,7 @@ class Drive(_Strict):
     """Position drive (UID 19 revolute; its prismatic analogue): a spring K/2 (x − target)²
     inside the implicit step, K = strength_ratio (m_P + m_C) (physical stiffness K/dt²)."""
 
-    target: float = 0.0
+    target: Number = 0.0
     strength_ratio: PositiveFloat = 100.0
     enabled: bool = True
 
@@ -139,13 +150,14 @@ class Joint(_Strict):
     x0: Vec3 | None = None
     x1: Vec3 | None = None
     strength_ratio: PositiveFloat = 100.0
-    torque: float = 0.0
+    torque: Number = 0.0
     enabled: bool = True
     torque_model: Literal['lever_arm', 'generalized'] = 'lever_arm'
     angle_mode: Literal['wrapped', 'continuous'] = 'wrapped'
-    effort_limit: Annotated[float, Field(gt=0.0, allow_inf_nan=True)] = math.inf
+    effort_limit: Annotated[float, Field(gt=0.0, allow_inf_nan=True),
+                            BeforeValidator(_not_a_boolean)] = math.inf
     limit: Limit | None = None
-    damping: Annotated[float, Field(ge=0.0)] = 0.0
+    damping: Annotated[Number, Field(ge=0.0)] = 0.0
     drive: Drive | None = None
 
     @model_validator(mode='after')
@@ -191,7 +203,8 @@ class Scene(_Strict):
     """A validated scene. Build with ``Scene.from_yaml(path)`` or ``Scene.from_dict(d)``."""
 
     name: Annotated[str, Field(min_length=1)] = 'scene'
-    dt: PositiveFloat = 0.01
+    # below 1 µs the stamps (integer ns per step) would stop resolving a step
+    dt: Annotated[Number, Field(ge=1.0e-6)] = 0.01
     gravity: Vec3 = (0.0, 0.0, -9.81)
     solver: Solver = Solver()
     bodies: Annotated[list[Body], Field(min_length=1)]
@@ -217,9 +230,12 @@ class Scene(_Strict):
         """Load and validate a scene file."""
         path = Path(path)
         try:
-            text = path.read_text()
+            text = path.read_text(encoding='utf-8')
         except OSError as exc:
             raise SceneError(f'{path}: cannot read scene file ({exc.strerror})') from None
+        except UnicodeDecodeError as exc:
+            raise SceneError(f'{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); '
+                             'a scene is YAML text') from None
         return cls.from_yaml_text(text, source=str(path))
 
     @classmethod
@@ -231,6 +247,8 @@ class Scene(_Strict):
             data = yaml.load(text, Loader=_SceneLoader)
         except yaml.YAMLError as exc:
             raise SceneError(f'{source}: not valid YAML: {exc}') from None
+        except RecursionError:
+            raise SceneError(f'{source}: YAML nested too deeply to be a scene') from None
         if solver_defaults and isinstance(data, dict) and isinstance(data.get('solver', {}), dict):
             data['solver'] = dict(solver_defaults, **data.get('solver', {}))
         return cls.from_dict(data, source=source)

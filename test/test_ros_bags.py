@@ -167,15 +167,22 @@ def test_what_if_with_another_dt_reports_a_divergence(sample_bag, tmp_path):
     assert again.returncode == 0, again.stdout + again.stderr
 
 
-def _copy(source, target, drop):
-    """Rewrite a bag without the topic ending in ``drop`` (as another recorder might)."""
+def _copy(source, target, drop='', damage=''):
+    """Rewrite a bag without the topic ending in ``drop`` (as another recorder might), and
+    with the payload of the 10th message on the topic ending in ``damage`` garbled."""
     topics = load_topics()
     with Reader(source) as reader:
-        kept = [c for c in reader.connections if not c.topic.endswith(drop)]
+        kept = [c for c in reader.connections if not (drop and c.topic.endswith(drop))]
         recorder = BagRecorder(target, 'mcap', [
             BagTopic(c.topic, c.msgtype, topics['joint_commands'].qos) for c in kept])
+        seen = 0
         for connection, t_ns, raw in reader.messages(connections=kept):
-            recorder.write(connection.topic, t_ns, bytes(raw))
+            raw = bytes(raw)
+            if damage and connection.topic.endswith(damage):
+                seen += 1
+                if seen == 10:
+                    raw = raw[:8] + b'\xff' * (len(raw) - 8)
+            recorder.write(connection.topic, t_ns, raw)
     recorder.close()
 
 
@@ -220,6 +227,33 @@ def test_damaged_or_foreign_paths_give_a_clear_error(sample_bag, tmp_path, make)
     assert replayed.returncode == 2, replayed.stdout + replayed.stderr
     assert replayed.stderr.startswith('affine-joint-sim replay: error: ')
     assert 'Traceback' not in replayed.stderr
+
+
+def test_a_damaged_payload_is_a_damaged_bag_not_a_divergence(sample_bag, tmp_path):
+    damaged = tmp_path / 'damaged'
+    _copy(sample_bag, damaged, damage='/joint_states')
+    replayed = cli('replay', damaged)
+    assert replayed.returncode == 2, replayed.stdout + replayed.stderr
+    assert 'damaged bag: the message on /joint_states at bag time' in replayed.stderr
+    assert 'Traceback' not in replayed.stderr
+
+
+@pytest.mark.parametrize('flags, message', [
+    (['--tol', 'nan'], 'argument --tol: expected a finite number >= 0'),
+    (['--tol', '-1'], 'argument --tol: expected a finite number >= 0'),
+    (['--scene', 'no_such_scene'], "--scene: scene 'no_such_scene' is neither a file nor a "
+                                   'packaged scene'),
+])
+def test_bad_replay_flags_exit_2_with_one_line(sample_bag, flags, message):
+    replayed = cli('replay', sample_bag, *flags)
+    assert replayed.returncode == 2 and message in replayed.stderr, replayed.stderr
+    assert 'Traceback' not in replayed.stderr
+
+
+def test_replay_takes_a_packaged_scene_name(sample_bag):
+    replayed = cli('replay', sample_bag, '--scene', 'pendulum')
+    assert replayed.returncode in (0, 1), replayed.stderr         # a what-if: it may diverge
+    assert 'max |Δθ|' in replayed.stdout and 'Traceback' not in replayed.stderr
 
 
 def test_publish_drives_a_running_node_in_another_namespace(sample_bag, spawn, ros_node,

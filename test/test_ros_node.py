@@ -115,6 +115,20 @@ def test_position_commands_drive_the_joints_that_have_a_drive(sim, ros_node, wai
     assert "joint 'elbow' has no drive" in output and output.count('has no drive') == 1
 
 
+def test_an_oversized_command_is_dropped_undecoded_and_stepping_goes_on(sim, ros_node,
+                                                                          wait_for):
+    child = sim('--mode', 'realtime', '--real-time-factor', '2.0')
+    states = Inbox(ros_node, 'joint_states')
+    commands = publisher(ros_node, wait_for, 'joint_commands')
+    names = [f'joint_{k}' for k in range(100_000)]
+    commands.publish(JointState(name=names, effort=[1.0] * len(names)))
+    commands.publish(JointState(name=['shoulder'], effort=[0.25]))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 0.25)
+    output = child.stop()
+    assert 'over max_command_bytes (65536): dropped undecoded' in output
+    assert 'commands dropped: 1 oversized' in output
+
+
 def test_disabled_torque_is_not_applied(sim, ros_node, wait_for):
     sim('--mode', 'realtime', '--real-time-factor', '2.0')
     states = Inbox(ros_node, 'joint_states')
@@ -245,6 +259,11 @@ def test_lockstep_closed_loop_is_bit_identical(sim, ros_node, wait_for):
     (['--command-timeout', 'nan'], "parameter 'command_timeout': nan is out of range"),
     (['--ros-args', '-p', 'mode:=slow'], "parameter 'mode': 'slow' is not one of realtime"),
     (['--device', 'gpu7'], "parameter 'device':"),
+    (['--command-joints', 'shoulder,knee'], "parameter 'command_joints': knee is not a moving "
+                                            'joint of the scene (valid, once each: shoulder)'),
+    (['--lockstep-publishers', '0'], "parameter 'lockstep_publishers': 0 is out of range"),
+    (['--ros-args', '--params-file', '/missing.yaml'], "Couldn't parse params file"),
+    (['--ros-args', '--no-such-ros-argument'], 'unknown ROS arguments'),
 ])
 def test_bad_parameter_exits_with_a_clear_error(flags, message):
     done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', *flags],
@@ -252,6 +271,25 @@ def test_bad_parameter_exits_with_a_clear_error(flags, message):
     assert done.returncode == 2
     assert message in done.stderr, done.stderr
     assert 'Traceback' not in done.stderr
+
+
+def test_an_integer_for_a_float_parameter_is_a_float():
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--mode', 'fast',
+                           '--ros-args', '-p', 'duration:=1', '-p', 'real_time_factor:=2'],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert '100 steps, 1.000 s simulated' in done.stdout
+
+
+def test_a_joint_name_too_long_for_a_topic_is_refused_naming_the_joint(tmp_path):
+    data = yaml.safe_load(SCENES.joinpath('pendulum.yaml').read_text())
+    data['joints'][0]['name'] = 'j' * 250
+    scene = tmp_path / 'long.yaml'
+    scene.write_text(yaml.safe_dump(data))
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--scene', scene],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and "error: joint 'jjjj" in done.stderr, done.stderr
+    assert 'use a shorter joint name' in done.stderr and 'Traceback' not in done.stderr
 
 
 def test_bad_scene_file_names_the_key_path(tmp_path):

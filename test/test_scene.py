@@ -62,7 +62,7 @@ def test_defaults_and_exponent_without_sign():
     (('fixed: true', 'fixd: true'), 'bodies[0].fixd', 'valid keys here: name, shape'),
     (('name: link', 'name: 2link'), 'bodies[1].name', '[A-Za-z_]'),
     (('name: link', 'name: base'), 'bodies[1].name', "duplicate name 'base'"),
-    (('name: test', 'name: test\ndt: 0'), 'dt', 'greater than 0'),
+    (('name: test', 'name: test\ndt: 0'), 'dt', 'greater than or equal to 0.000001'),
     (('name: test', 'name: test\nsolver: {integrator: rk4}'), 'solver.integrator', "'bdf2'"),
     (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], torque_model: magic}'), 'joints[0].torque_model',
      "'generalized'"),
@@ -112,6 +112,35 @@ def test_closed_loop_is_rejected_with_its_joints():
                    'x1: [0.1, 0, -1]}\n')
     message = error_of(text)
     assert 'joints[1]' in message and 'closed loop (hinge, back)' in message
+
+
+@pytest.mark.parametrize('edit, path', [
+    (('name: test', 'name: test\ndt: true'), 'dt'),
+    (('mass: 1.0', 'mass: true'), 'bodies[1].mass'),
+    (('position: [0, 0, -0.5]', 'position: [0, false, -0.5]'), 'bodies[1].position[1]'),
+])
+def test_booleans_are_not_numbers(edit, path):
+    message = error_of(BASE.replace(*edit))
+    assert f'  {path}: must be a number, not a boolean' in message, message
+
+
+def test_dt_below_one_microsecond_is_refused():
+    message = error_of(BASE.replace('name: test', 'name: test\ndt: 1.0e-7'))
+    assert '  dt: Input should be greater than or equal to 0.000001' in message, message
+
+
+def test_binary_deep_and_utf16_files_name_the_file(tmp_path):
+    utf16 = tmp_path / 'utf16.yaml'
+    utf16.write_bytes(BASE.encode('utf-16'))
+    binary = tmp_path / 'binary.yaml'
+    binary.write_bytes(bytes(range(256)))
+    deep = tmp_path / 'deep.yaml'
+    deep.write_text('a:\n' + ''.join('  ' * i + f'b{i}:\n' for i in range(1, 3000)))
+    for path, why in ((utf16, 'not a UTF-8 text file'), (binary, 'not a UTF-8 text file'),
+                      (deep, 'nested too deeply')):
+        with pytest.raises(SceneError, match=why) as info:
+            Scene.from_yaml(path)
+        assert str(info.value).startswith(str(path))
 
 
 def test_unreadable_and_non_mapping_sources():

@@ -29,7 +29,8 @@ from rclpy.executors import (ExternalShutdownException, ShutdownException,
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.signals import SignalHandlerOptions
-from rcl_interfaces.msg import SetParametersResult
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from std_srvs.srv import SetBool, Trigger
 
 from affine_joint_sim.resources import scene_path
@@ -84,6 +85,7 @@ class SimNode(Node):
         self.gate = LockstepGate(self.config['lockstep_publishers'])
         self._commands_topic = ''       # resolved joint_commands name (for the waiting report)
         self._warned_publishers = 0     # publisher count last warned about (lockstep)
+        self.oversized = 0              # command messages dropped for max_command_bytes
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
         self._stepping_thread = None
@@ -122,14 +124,16 @@ class SimNode(Node):
 
     def _declare_parameters(self) -> dict:
         config = {}
+        # dynamic typing: `-p duration:=5` (an integer) is a valid float; check() says what
+        # is valid for every parameter
+        descriptor = ParameterDescriptor(dynamic_typing=True)
         for name, spec in PARAMETERS.items():
             try:
-                value = self.declare_parameter(name, spec.default).value
+                value = self.declare_parameter(name, spec.default, descriptor).value
             except InvalidParameterTypeException as exc:
                 raise ConfigError(f'parameter {name!r}: expected a '
                                   f'{type(spec.default).__name__} ({exc})') from None
-            check(name, value)
-            config[name] = value
+            config[name] = check(name, value)
         return config
 
     def _make_interfaces(self):
@@ -159,13 +163,25 @@ class SimNode(Node):
         lockstep, a ``joint_commands`` message answers the state its stamp names (stale ones
         are dropped before they are recorded or applied)."""
         topic = self.topics[key]
-        name = self.resolve_topic_name(topic.name(joint))
+        try:
+            name = self.resolve_topic_name(topic.name(joint))
+        except _rclpy.RCLError as exc:     # e.g. longer than ROS allows (247 characters)
+            raise ConfigError(f'joint {joint!r}: its topic {topic.name(joint)!r} is not a valid '
+                              f'ROS topic name in namespace {self.get_namespace()!r} ({exc}); '
+                              'use a shorter joint name') from None
         msg_class = topic.msg_class
         answers = key in ANSWER_KEYS
         if key == 'joint_commands':
             self._commands_topic = name
 
         def receive(raw):
+            if len(raw) > self.config['max_command_bytes']:
+                with self._wake:
+                    self.oversized += 1
+                    self._reject(name, f'a message of {len(raw)} bytes is over max_command_bytes'
+                                 f' ({self.config["max_command_bytes"]}): dropped undecoded '
+                                 f'({self.oversized} so far)', kind='size')
+                return
             msg = deserialize_message(raw, msg_class)
             with self._wake:
                 if answers and self.config['mode'] == 'lockstep':
@@ -305,7 +321,7 @@ class SimNode(Node):
                 check(p.name, p.value)
             except ConfigError as exc:
                 return SetParametersResult(successful=False, reason=str(exc))
-        changed = {p.name: p.value for p in parameters if p.name in PARAMETERS}
+        changed = {p.name: check(p.name, p.value) for p in parameters if p.name in PARAMETERS}
 
         def apply():
             self.config.update(changed)
@@ -499,6 +515,7 @@ class SimNode(Node):
                 'real_time_factor': self.sim.time / wall if wall > 0 else 0.0,
                 'fell_behind': self.pacer.fell_behind, 'mode': self.config['mode'],
                 'angles': dict(zip(self.sim.joint_names, self.sim.angles.tolist())),
+                'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
                 'bag': self.config['record'] or None}
 
     def destroy_node(self):
@@ -533,7 +550,14 @@ def main(args=None, parameter_overrides=None) -> int:
     import warp as wp
 
     wp.config.log_level = wp.LOG_WARNING    # the node reports through ROS logging and its summary
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except _rclpy.UnknownROSArgsError as exc:
+        print(f'affine-joint-sim: error: unknown ROS arguments: {exc}', file=sys.stderr)
+        return 2
+    except _rclpy.RCLError as exc:
+        print(f'affine-joint-sim: error: ROS arguments: {exc}', file=sys.stderr)
+        return 2
     node = None
 
     def on_signal(signum, frame):
@@ -571,6 +595,9 @@ def print_summary(summary: dict) -> None:
           f'{summary["real_time_factor"]:.3g}')
     print('final angles [rad]: ' + ', '.join(f'{k} {v:.6f}'
                                               for k, v in summary['angles'].items()))
+    dropped = {k: v for k, v in summary['dropped'].items() if v}
+    if dropped:
+        print('commands dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()))
     if summary['bag']:
         print(f'bag: {Path(summary["bag"]).resolve()}')
     sys.stdout.flush()

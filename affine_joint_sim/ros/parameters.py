@@ -52,6 +52,9 @@ PARAMETERS = {
     'command_joints': ParameterSpec('', 'joints of effort_commands/position_commands arrays, '
                                     'comma-separated, in order (empty: every moving joint in '
                                     'scene order)'),
+    'max_command_bytes': ParameterSpec(65536, 'largest command message taken [bytes, as '
+                                       'serialized]; larger ones are dropped undecoded',
+                                       minimum=64, live=True),
     'publish_clock': ParameterSpec(True, 'publish /clock every step', live=True),
     'record': ParameterSpec('', 'bag directory to record into (empty: no recording)'),
     'storage': ParameterSpec('mcap', 'bag storage', choices=STORAGES),
@@ -63,9 +66,12 @@ PARAMETERS = {
 }
 
 
-def check(name: str, value) -> None:
-    """Raise ConfigError unless ``value`` is valid for parameter ``name``."""
+def check(name: str, value):
+    """``value`` for parameter ``name`` (an integer given for a float parameter becomes a
+    float); raise ConfigError unless it is valid."""
     spec = PARAMETERS[name]
+    if type(spec.default) is float and type(value) is int:
+        value = float(value)
     if type(value) is not type(spec.default):
         raise ConfigError(f'parameter {name!r}: expected a {type(spec.default).__name__}, '
                           f'got {value!r}')
@@ -78,3 +84,4 @@ def check(name: str, value) -> None:
             bound = f'> {low:g}' if spec.exclusive else f'>= {low:g}'
             raise ConfigError(f'parameter {name!r}: {value!r} is out of range (must be finite '
                               f'and {bound})')
+    return value

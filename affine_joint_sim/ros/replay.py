@@ -23,6 +23,7 @@ from rclpy.duration import Duration
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.rosbag2 import Reader
 
+from affine_joint_sim.resources import scene_path as packaged_scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
@@ -74,6 +75,15 @@ class _Message:
     msgtype: str
     joint: str | None = None
 
+    def decode(self):
+        """The message; ReplayError (a damaged bag) if its bytes do not decode."""
+        try:
+            return deserialize_message(self.raw, message_class(self.msgtype))
+        except Exception as exc:       # rclpy raises RMWError and others for bad CDR
+            raise ReplayError(f'damaged bag: the message on {self.topic} at bag time '
+                              f'{self.t_ns * 1e-9:.6f} s does not decode as {self.msgtype} '
+                              f'({type(exc).__name__})') from None
+
 
 @dataclass
 class RecordedBag:
@@ -122,8 +132,7 @@ def read_bag(path) -> RecordedBag:
                 message = _Message(kind, connection.topic, t_ns, bytes(raw), connection.msgtype,
                                    joint)
                 if kind == 'scene' and bag.scene_yaml is None:
-                    bag.scene_yaml = deserialize_message(raw, message_class(
-                        connection.msgtype)).data
+                    bag.scene_yaml = message.decode().data
                 if kind in COMMAND_KEYS:
                     bag.command_topics[connection.topic] = connection.msgtype
                 bag.messages.append(message)
@@ -137,7 +146,10 @@ def read_bag(path) -> RecordedBag:
 
 def _scene_of(bag: RecordedBag, scene_path) -> Scene:
     if scene_path is not None:
-        return Scene.from_yaml(scene_path)
+        try:
+            return Scene.from_yaml(packaged_scene_path(scene_path))
+        except FileNotFoundError as exc:
+            raise ReplayError(f'--scene: {exc}') from None
     if bag.scene_yaml is None:
         raise ReplayError(f'{bag.path}: the bag holds no scene (~/scene); give one with --scene')
     return Scene.from_yaml_text(bag.scene_yaml, source=f'{bag.path} (~/scene)',
@@ -193,7 +205,7 @@ class _Resimulation:
         self.pending = [m for m in self.pending if m.t_ns > now + _EPS_NS]
         for m in due:
             self.buffer.take(m.kind, m.joint,
-                             deserialize_message(m.raw, message_class(m.msgtype)))
+                             m.decode())
         self.buffer.apply(self.sim, self.sim.time)
         self.sim.step()
         self.previous, self.current = self.current, self._sample()
@@ -245,7 +257,7 @@ def _replay_messages(bag, run, writer, divergence, scene):
         elif m.kind == 'events':
             if writer:
                 writer.recorder.write(m.topic, m.t_ns, m.raw)
-            event = yaml.safe_load(deserialize_message(m.raw, message_class(m.msgtype)).data)
+            event = yaml.safe_load(m.decode().data)
             started = started or event.get('event') == 'start'
             if event.get('event') == 'reset' and (run.sim.step_count or m.t_ns != run.epoch_ns):
                 run.reset(m.t_ns)
@@ -254,7 +266,7 @@ def _replay_messages(bag, run, writer, divergence, scene):
             if 'command_joints' in event:
                 run.buffer.array_joints = list(event['command_joints'])
         elif m.kind == 'joint_states':
-            msg = deserialize_message(m.raw, message_class(m.msgtype))
+            msg = m.decode()
             if list(msg.name) != names:
                 raise ReplayError(f'{bag.path}: joint_states name {list(msg.name)}, but the '
                                   f'scene {scene.name!r} has moving joints {names}')
