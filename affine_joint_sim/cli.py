@@ -190,17 +190,20 @@ def build_parser() -> argparse.ArgumentParser:
     controller.set_defaults(func=_controller)
 
     demo = commands.add_parser(
-        'demo', help='node + PD controller closed loop, recorded (make run)',
-        description='Run the node and the PD controller as two processes over DDS, record a '
-                    'bag and print a summary.')
+        'demo', help='node + PD controller closed loop (make run, which also records a bag)',
+        description='Run the node and the PD controller as two processes over DDS for '
+                    '--duration simulated seconds and print a summary; with --record, record a '
+                    'bag. Ctrl-C stops both and still prints the summary.')
     demo.add_argument('--scene', default='pendulum', help='scene file or packaged name')
     demo.add_argument('--target', type=_assignment, action='append',
                       default=None, metavar='JOINT=RAD', help='target angle (repeatable; '
                       'default shoulder=1.0)')
-    demo.add_argument('--duration', type=float, default=3.0, help='simulated seconds')
+    demo.add_argument('--duration', type=_positive, default=3.0,
+                      help='simulated seconds (> 0)')
     demo.add_argument('--mode', default='lockstep', choices=MODES,
                       help='node mode (default: %(default)s: deterministic)')
-    demo.add_argument('--record', type=Path, default=None, help='bag directory')
+    demo.add_argument('--record', type=Path, default=None,
+                      help='bag directory to record into (default: no bag)')
     _add_gains(demo)
     _add_interface(demo)
     demo.set_defaults(func=_demo)

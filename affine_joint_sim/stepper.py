@@ -18,7 +18,8 @@ from affine_joint_sim.physics.energy import mechanical_energy
 from affine_joint_sim.physics.fields import (STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
                                              device_model)
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
-from affine_joint_sim.physics.model import SimulationWarning, build_model
+from affine_joint_sim.physics.model import (SimulationWarning, build_model,
+                                            largest_step_efforts)
 from affine_joint_sim.scene import Scene
 
 __all__ = ['Stepper', 'SimulationWarning']
@@ -102,6 +103,12 @@ class Stepper:
         """Each joint's type: 'revolute' (angles [rad], torques [N·m]), 'prismatic'
         (distances [m], forces [N]) or 'fixed' (no coordinate, no command; reported as 0)."""
         return [j.type for j in self.scene.joints]
+
+    @property
+    def step_effort_bounds(self) -> np.ndarray:
+        """Per joint, the largest |torque| [N·m] or |force| [N] a step of dt can represent
+        (physics.model.largest_step_efforts): a command beyond it is not physical at this dt."""
+        return largest_step_efforts(self._host)
 
     @property
     def command_joint_names(self) -> list[str]:

@@ -112,17 +112,32 @@ def test_array_commands_are_recorded_and_replay_exactly(sim, ros_node, wait_for,
     assert 'largest difference 0.000e+00' in replayed.stdout
 
 
+def _splits(bag):
+    """The splits listed in a bag's metadata.yaml (0 before it exists)."""
+    try:
+        info = yaml.safe_load((bag / 'metadata.yaml').read_text())
+    except FileNotFoundError:
+        return 0
+    return len(info['rosbag2_bagfile_information']['relative_file_paths'])
+
+
+def test_a_long_wait_still_closes_the_split_with_the_computed_steps(sim, ros_node, wait_for,
+                                                                     tmp_path):
+    bag = tmp_path / 'waiting'
+    child = sim('--mode', 'lockstep', '--record', bag)      # no controller: waits on state 0
+    assert wait_for(lambda: _splits(bag) >= 2, timeout=20.0)
+    os.kill(child.pid, signal.SIGKILL)
+    child.communicate()
+    assert [stamp_ns(m) for m in bag_messages(bag)['/joint_states']] == [0]
+
+
 def test_sigkill_leaves_a_readable_bag_up_to_the_last_split(sim, ros_node, wait_for, tmp_path):
     bag = tmp_path / 'killed'
     child = sim('--mode', 'fast', '--record', bag)
     publisher(ros_node, wait_for, 'joint_torque', 'shoulder').publish(Float64(data=0.5))
 
     def splits():
-        try:
-            info = yaml.safe_load((bag / 'metadata.yaml').read_text())
-        except FileNotFoundError:
-            return 0
-        return len(info['rosbag2_bagfile_information']['relative_file_paths'])
+        return _splits(bag)
 
     assert wait_for(lambda: splits() >= 3, timeout=20.0)
     os.kill(child.pid, signal.SIGKILL)

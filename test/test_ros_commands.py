@@ -112,3 +112,11 @@ def test_arrays_of_the_wrong_length_or_non_finite_entries_are_dropped():
     assert 'not finite' in buffer.position_array([math.nan, 0.2])[0]
     buffer.apply(sim, 0.0)
     assert sim.torque == {} and sim.target == {'b': 0.2}
+
+
+def test_commands_beyond_what_a_step_can_represent_are_dropped():
+    buffer, sim = CommandBuffer(['a'], effort_bounds=[100.0]), FakeStepper()
+    assert 'beyond what one step can represent (|value| <= 100' in buffer.torque('a', 1e308)
+    assert buffer.torque('a', -100.0) is None
+    buffer.apply(sim, 0.0)
+    assert sim.torque == {'a': -100.0}

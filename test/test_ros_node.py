@@ -115,6 +115,18 @@ def test_position_commands_drive_the_joints_that_have_a_drive(sim, ros_node, wai
     assert "joint 'elbow' has no drive" in output and output.count('has no drive') == 1
 
 
+def test_a_non_physical_torque_is_dropped_and_the_joint_keeps_moving(sim, ros_node, wait_for):
+    child = sim('--mode', 'realtime', '--real-time-factor', '2.0')
+    states = Inbox(ros_node, 'joint_states')
+    pub = publisher(ros_node, wait_for, 'joint_torque', 'shoulder')
+    pub.publish(Float64(data=1e308))
+    pub.publish(Float64(data=0.5))
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] == 0.5)
+    assert wait_for(lambda: states.last.position[0] > 0.01)
+    output = child.stop()
+    assert 'torque/force 1e+308' in output and 'beyond what one step can represent' in output
+
+
 def test_an_oversized_command_is_dropped_undecoded_and_stepping_goes_on(sim, ros_node,
                                                                           wait_for):
     child = sim('--mode', 'realtime', '--real-time-factor', '2.0')

@@ -1,7 +1,9 @@
 """The CLI tools (torque, enable, echo) and the demo, as a user runs them, against a live node."""
 
+import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -42,6 +44,14 @@ def test_torque_tool_sends_a_force_to_a_prismatic_joint(sim, ros_node, wait_for)
     assert wait_for(lambda: states.last.effort[0] == 0.0)
 
 
+def test_echo_into_a_pipe_that_closes_ends_quietly(sim):
+    sim('--mode', 'realtime')
+    done = subprocess.run(f'{sys.executable} -m affine_joint_sim.cli echo --rate 100 --timeout 30'
+                          ' | head -n 3', shell=True, capture_output=True, text=True, timeout=60)
+    assert len(done.stdout.splitlines()) == 3 and 'joint' in done.stdout
+    assert 'Traceback' not in done.stderr and 'BrokenPipe' not in done.stderr, done.stderr
+
+
 def test_torque_to_an_unknown_joint_names_the_known_ones(sim):
     sim()
     sent = cli('torque', 'elbow', 1.0, '--timeout', 2)
@@ -69,3 +79,34 @@ def test_demo_closes_the_loop_and_reports(tmp_path, interface):
     target, final, error = map(float, row.split()[1:])
     # PD against gravity settles m g l/2 sin(θ*)/kp = 4.905 sin(0.8)/100 = 0.035 rad short.
     assert target == 0.8 and abs(error + 0.035) < 0.01, out
+
+
+def _children(pid):
+    return [int(c) for c in Path(f'/proc/{pid}/task/{pid}/children').read_text().split()]
+
+
+def test_demo_sigterm_stops_node_and_controller_and_prints_the_summary(ros_node, wait_for):
+    states = Inbox(ros_node, 'joint_states')
+    demo = subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'demo', '--duration',
+                             '1000'], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert demo.stdout.readline().startswith('demo: node')
+    assert wait_for(lambda: states.last is not None and states.last.effort[0] != 0.0,
+                    timeout=30.0)          # node and controller both run: the loop is closed
+    children = _children(demo.pid)
+    assert len(children) == 2
+    demo.send_signal(signal.SIGTERM)
+    output, _ = demo.communicate(timeout=60)
+    assert demo.returncode == 0 and 'Traceback' not in output, output
+    assert 'interrupted' in output and 'steps/s' in output and 'PD controller' in output
+    assert not any(Path(f'/proc/{c}').exists() for c in children), 'orphans left running'
+
+
+@pytest.mark.parametrize('flags, message', [
+    (['--target', 'knee=1.0'], "--target knee: not a moving joint of scene 'pendulum' "
+                               '(joints: shoulder)'),
+    (['--duration', '0'], 'argument --duration: expected a finite number > 0'),
+])
+def test_demo_refuses_bad_flags_at_start(flags, message):
+    done = cli('demo', *flags)
+    assert done.returncode == 2 and message in done.stderr, done.stderr
+    assert 'Traceback' not in done.stderr

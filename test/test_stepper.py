@@ -310,3 +310,15 @@ def test_float32_tracks_float64():
         sim.set_torque('hinge', 2.0)
         run(sim, 100)
     assert single.angles[0] == pytest.approx(double.angles[0], abs=2e-3)
+
+
+def test_largest_step_effort_turns_the_link_by_the_aliasing_limit_in_one_step():
+    sim = Stepper(pinned_link(dt=0.01))
+    bound = sim.step_effort_bounds[0]
+    assert bound == pytest.approx(0.9 * math.pi * I_PIN / 0.01 ** 2, rel=1e-12)
+    prismatic = Scene.from_dict({'bodies': [
+        {'name': 'base', 'shape': {'box': [0.2, 0.2, 0.2]}, 'density': 1000.0, 'fixed': True},
+        {'name': 'cube', 'shape': {'box': [0.1, 0.2, 0.3]}, 'mass': 2.0}],
+        'joints': [{'name': 's', 'type': 'prismatic', 'parent': 'base', 'child': 'cube',
+                    'x0': [0, 0, 0], 'x1': [1, 0, 0]}]})
+    assert Stepper(prismatic).step_effort_bounds[0] == pytest.approx(2.0 * 0.3 / 0.01 ** 2)

@@ -17,7 +17,7 @@ from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import mass_properties
 
 __all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'direction_jacobian',
-           'linear_pairs', 'rotation_matrix']
+           'linear_pairs', 'rotation_matrix', 'largest_step_efforts']
 
 
 class SimulationWarning(UserWarning):
@@ -300,3 +300,36 @@ def _warn_com_on_axis(scene, fixed, joints):
                     f'{scene.bodies[body].name!r} lies on the joint axis, so torque_model '
                     'lever_arm applies no torque to it; use torque_model: generalized',
                     SimulationWarning, stacklevel=3)
+
+
+def largest_step_efforts(model: HostModel) -> np.ndarray:
+    """Per joint, the largest |torque| [N·m] or |force| [N] one step can represent [(nj,)].
+
+    A revolute torque τ turns a body of inertia I about the axis by τ dt²/I in one step from
+    rest: beyond 0.9π·I/dt² (I of the joint's lighter free body) the step is rejected as
+    aliasing. A prismatic force f moves a body of mass m by f dt²/m: beyond m·d/dt² (d: the
+    body's largest extent) one step throws it further than its own size. inf where no body of
+    the joint is free; 0 for fixed joints (no command).
+    """
+    out = np.full(model.joint_count, np.inf)
+    for k in range(model.joint_count):
+        if model.joint_type[k] == FIXED:
+            out[k] = 0.0
+            continue
+        for side in ('parent', 'child'):
+            body = getattr(model, f'joint_{side}')[k]
+            if model.body_fixed[body]:
+                continue
+            mass = model.body_mass[body]
+            if model.joint_type[k] == PRISMATIC:
+                bound = mass * 2.0 * model.body_half_extent[body].max() / model.dt ** 2
+            else:
+                p0 = getattr(model, f'joint_{side}_point0')[k]
+                axis = getattr(model, f'joint_{side}_point1')[k] - p0
+                axis /= np.linalg.norm(axis)
+                s = model.body_second_moment[body]
+                inertia_cm = s.sum() - s @ axis ** 2          # t̂ᵀ (tr(S) I − S) t̂
+                arm = -p0 - (-p0 @ axis) * axis               # COM (rest origin) from the axis
+                bound = 0.9 * math.pi * (inertia_cm + mass * arm @ arm) / model.dt ** 2
+            out[k] = min(out[k], bound)
+    return out

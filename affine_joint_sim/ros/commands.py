@@ -21,15 +21,19 @@ class CommandBuffer:
         array_joints: the joints of ``effort_commands``/``position_commands`` arrays, in
             order (ros2_control's ``joints`` of a group controller); default ``joint_names``.
         drive_joints: the joints that have a drive (take a position command).
+        effort_bounds: per joint of ``joint_names``, the largest |torque| [N·m] or |force| [N]
+            a step can represent (Stepper.step_effort_bounds); larger commands are dropped.
     """
 
     def __init__(self, joint_names: list[str], command_timeout: float = 0.0,
-                 array_joints: list[str] | None = None, drive_joints=()):
+                 array_joints: list[str] | None = None, drive_joints=(), effort_bounds=None):
         self.joint_names = list(joint_names)
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.command_timeout = command_timeout
         self.array_joints = list(array_joints or joint_names)
         self.drive_joints = set(drive_joints)
+        self.effort_bounds = [math.inf] * len(self.joint_names) if effort_bounds is None \
+            else [float(b) for b in effort_bounds]
         self._no_drive_said: set[str] = set()
         self.reset([0.0] * len(self.joint_names))
 
@@ -50,6 +54,10 @@ class CommandBuffer:
             return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
         if not math.isfinite(value):
             return f'torque {value!r} for joint {joint!r} is not finite: dropped'
+        if abs(value) > self.effort_bounds[k]:
+            return (f'torque/force {value:g} for joint {joint!r} is beyond what one step can '
+                    f'represent (|value| <= {self.effort_bounds[k]:.4g}: more would turn or throw '
+                    'its body further than the step can follow): dropped')
         self._torque[k] = float(value)
         return None
 

@@ -4,6 +4,7 @@ The controller starts first; the node runs the scene for ``duration`` simulated 
 (recording a bag), then the controller is stopped and both reports are printed together.
 """
 
+import os
 import signal
 import subprocess
 import sys
@@ -14,9 +15,38 @@ __all__ = ['run_demo']
 
 
 def _start(*args) -> subprocess.Popen:
-    """``affine-joint-sim ARGS`` in a child process; its stdout (the report) is captured."""
+    """``affine-joint-sim ARGS`` in a child process; its stdout (the report) is captured.
+
+    In a session of its own: a Ctrl-C in the terminal reaches the demo only, which stops the
+    children itself (a child still starting up would print a traceback for it)."""
     return subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
-                            stdout=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def _check_targets(scene: str, targets: dict[str, float]) -> None:
+    """Raise ValueError unless every target names a moving joint of the scene."""
+    from affine_joint_sim.resources import scene_path
+    from affine_joint_sim.scene import Scene
+
+    loaded = Scene.from_yaml(scene_path(scene))
+    moving = [j.name for j in loaded.joints if j.type != 'fixed']
+    wrong = [joint for joint in targets if joint not in moving]
+    if wrong:
+        raise ValueError(f'--target {", ".join(wrong)}: not a moving joint of scene '
+                         f'{loaded.name!r} (joints: {", ".join(moving) or "none"})')
+
+
+def _stop(process: subprocess.Popen) -> str:
+    """SIGTERM (a running child prints its report and exits; one still starting up just
+    ends), then SIGKILL if it hangs; its output."""
+    if process.poll() is None:
+        process.send_signal(signal.SIGTERM)
+    try:
+        output, _ = process.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        output, _ = process.communicate()
+    return output or ''
 
 
 def run_demo(scene: str, targets: dict[str, float], duration: float, mode: str,
@@ -24,22 +54,39 @@ def run_demo(scene: str, targets: dict[str, float], duration: float, mode: str,
              interface: str = 'joint_commands') -> int:
     """Run node + controller; print final angles vs targets, steps/s, real-time factor, bag.
 
-    Returns the node's exit status.
+    SIGINT/SIGTERM (Ctrl-C) stop both children, whose reports are still printed; neither is
+    left running. Returns the node's exit status (2: a target that is not a joint).
     """
+    _check_targets(scene, targets)
     target_args = [a for joint, angle in targets.items() for a in ('--target', f'{joint}={angle}')]
-    controller = _start('controller', *target_args, '--kp', kp, '--kd', kd, '--interface',
-                        interface)
     node_args = ['run', '--scene', scene, '--mode', mode, '--duration', duration]
     if record is not None:
         node_args += ['--record', record]
+    where = ' on loopback' if os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') == 'LOCALHOST' \
+        else ''
     print(f'demo: node ({scene}, {mode}, {duration:g} s) and PD controller '
-          f'(targets {targets}) over DDS on loopback ...', flush=True)
+          f'(targets {targets}) over DDS{where} ...', flush=True)
     start = time.monotonic()
-    node = _start(*node_args)
-    node_report, _ = node.communicate()
-    controller.send_signal(signal.SIGINT)
-    controller_report, _ = controller.communicate(timeout=30)
-    print(f'\n--- demo summary ({time.monotonic() - start:.1f} s wall) ---')
+    stop = []
+
+    def on_signal(signum, frame):
+        stop.append(signum)
+
+    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    controller = node = None
+    try:
+        controller = _start('controller', *target_args, '--kp', kp, '--kd', kd, '--interface',
+                            interface)
+        node = _start(*node_args)
+        while node.poll() is None and not stop:
+            time.sleep(0.05)
+    finally:
+        node_report = _stop(node) if node is not None else ''
+        controller_report = _stop(controller) if controller is not None else ''
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    print(f'\n--- demo summary ({time.monotonic() - start:.1f} s wall'
+          f'{", interrupted" if stop else ""}) ---')
     print(node_report.rstrip())
     print(controller_report.rstrip())
-    return node.returncode
+    return node.returncode if not stop else 0

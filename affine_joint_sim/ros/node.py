@@ -78,7 +78,9 @@ class SimNode(Node):
         self.commands = CommandBuffer(
             self.sim.command_joint_names, self.config['command_timeout'],
             array_joints=command_joints(self.config['command_joints'], self.sim),
-            drive_joints=[j.name for j in self.scene.joints if j.drive is not None])
+            drive_joints=[j.name for j in self.scene.joints if j.drive is not None],
+            effort_bounds=[b for b, kind in zip(self.sim.step_effort_bounds,
+                                                self.sim.joint_types) if kind != 'fixed'])
         self.pacer = Pacer(self.config['real_time_factor'])
         self.topics = load_topics()
         self.paused = False
@@ -491,6 +493,8 @@ class SimNode(Node):
                     self._serve_requests()
                     wait = self._wait_before_step()
                     if wait > 0.0:
+                        if self.recorder is not None:   # a long pause keeps what is computed
+                            self.recorder.flush_if_due()
                         self._wake.wait(min(wait, 0.1))
                         continue
                     self.step()

@@ -179,7 +179,8 @@ class _Resimulation:
         self.wrapped = self.states.wrapped
         self.buffer = CommandBuffer(
             self.sim.command_joint_names,
-            drive_joints=[j.name for j in scene.joints if j.drive is not None])
+            drive_joints=[j.name for j in scene.joints if j.drive is not None],
+            effort_bounds=self.states.select(self.sim.step_effort_bounds))
         self.on_state = on_state
         self.reset(0)
 

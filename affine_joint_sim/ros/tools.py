@@ -127,6 +127,9 @@ def echo(namespace: str = '', rate: float = 10.0, once: bool = False,
                     return 0
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0
+    except BrokenPipeError:         # `echo | head`: the reader has what it wanted
+        sys.stdout = open(os.devnull, 'w')      # nothing more goes to the closed pipe at exit
+        return 0
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
