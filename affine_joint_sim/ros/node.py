@@ -49,6 +49,7 @@ __all__ = ['SimNode', 'main']
 NODE_NAME = 'affine_joint_sim'
 _WARN_EVERY = 2.0       # wall seconds between two warnings about the same topic
 _RATE_WINDOW = 2.0      # wall seconds over which the realtime factor is checked
+_YIELD_EVERY = 0.0005   # wall seconds of stepping after which the callback thread gets the GIL
 
 
 class SimNode(Node):
@@ -88,6 +89,7 @@ class SimNode(Node):
         self._commands_topic = ''       # resolved joint_commands name (for the waiting report)
         self._warned_publishers = 0     # publisher count last warned about (lockstep)
         self.oversized = 0              # command messages dropped for max_command_bytes
+        self.taken = 0                  # command messages taken (decoded and queued)
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
         self._stepping_thread = None
@@ -198,6 +200,7 @@ class SimNode(Node):
                         return
                     if self.gate.released:
                         self._wake.notify()
+                self.taken += 1
                 if self.recorder is not None:
                     self._inbox.append((name, raw))
                 for problem in self.commands.take(key, joint, msg):
@@ -487,6 +490,7 @@ class SimNode(Node):
             self.reset()
         self._window_start = time.monotonic()
         spinner.start()
+        yielded = time.monotonic()
         try:
             while not self.stop_requested.is_set() and not failure and not self._finished():
                 with self._wake:
@@ -499,6 +503,11 @@ class SimNode(Node):
                         continue
                     self.step()
                 self._check_rate()
+                now = time.monotonic()
+                if now - yielded > _YIELD_EVERY:
+                    # let the callback thread take the GIL: commands keep up with fast stepping
+                    time.sleep(0)
+                    yielded = now
         finally:
             with self._wake:
                 self._serve_requests(stopping=True)
@@ -519,6 +528,7 @@ class SimNode(Node):
                 'real_time_factor': self.sim.time / wall if wall > 0 else 0.0,
                 'fell_behind': self.pacer.fell_behind, 'mode': self.config['mode'],
                 'angles': dict(zip(self.sim.joint_names, self.sim.angles.tolist())),
+                'taken': self.taken,
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
                 'bag': self.config['record'] or None}
 
@@ -600,8 +610,8 @@ def print_summary(summary: dict) -> None:
     print('final angles [rad]: ' + ', '.join(f'{k} {v:.6f}'
                                               for k, v in summary['angles'].items()))
     dropped = {k: v for k, v in summary['dropped'].items() if v}
-    if dropped:
-        print('commands dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()))
+    print(f'commands taken: {summary["taken"]}' + (
+        '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else ''))
     if summary['bag']:
         print(f'bag: {Path(summary["bag"]).resolve()}')
     sys.stdout.flush()
