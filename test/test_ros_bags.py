@@ -16,9 +16,11 @@ from std_srvs.srv import Trigger
 
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.topics import load_topics
+from helpers.logged_node import LoggedNode
 from helpers.ros_client import Inbox, call, publisher, stamp_ns
 
 SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
+DT_10 = 10 * 10_000_000         # ten steps of the pendulum [ns]
 
 REPO = Path(__file__).resolve().parent.parent
 SAMPLE_BAGS = sorted(p.parent for p in (REPO / 'bags').glob('*/metadata.yaml'))
@@ -131,6 +133,47 @@ def test_a_long_wait_still_closes_the_split_with_the_computed_steps(sim, ros_nod
     assert [stamp_ns(m) for m in bag_messages(bag)['/joint_states']] == [0]
 
 
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 1 MiB tmpfs (needs root, as CI and the development machines have)."""
+    disk = tmp_path / 'disk'
+    disk.mkdir()
+    mounted = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=1m', 'tmpfs', str(disk)],
+                             capture_output=True, text=True)
+    if mounted.returncode != 0:
+        pytest.skip(f'cannot mount a tmpfs here: {mounted.stderr.strip()}')
+    yield disk
+    subprocess.run(['umount', '-l', str(disk)], check=False)
+
+
+def test_a_full_disk_stops_recording_not_the_simulation(ros_node, wait_for, small_disk,
+                                                        tmp_path):
+    bag = small_disk / 'run'
+    # ~0.4 MB of states a second: the first 1 s split fits, a later one does not
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'realtime', '--real-time-factor',
+                      '20', '--record', bag)
+    states = Inbox(ros_node, 'joint_states')
+    assert wait_for(lambda: node.said('recording stopped:'), timeout=30.0)
+    full_at = stamp_ns(states.last) if states.last is not None else 0
+    assert wait_for(lambda: states.last is not None and stamp_ns(states.last) > full_at + DT_10)
+    output = node.stop()
+    assert 'recording stopped:' in output
+    assert 'stays readable up to its last closed split' in output
+    assert '(recording stopped early:' in output and 'steps/s' in output, output
+    assert 'Traceback' not in output
+    assert not any(p.name.startswith('.split_') for p in bag.iterdir())
+    assert len(bag_messages(bag)['/joint_states']) > 100
+    replayed = cli('replay', bag)
+    assert replayed.returncode == 0, replayed.stdout + replayed.stderr
+
+
+def test_a_bag_name_too_long_for_its_split_files_is_refused(tmp_path):
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--record',
+                           tmp_path / ('b' * 250)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and 'too long for its split files' in done.stderr, done.stderr
+    assert 'Traceback' not in done.stderr
+
+
 def test_sigkill_leaves_a_readable_bag_up_to_the_last_split(sim, ros_node, wait_for, tmp_path):
     bag = tmp_path / 'killed'
     child = sim('--mode', 'fast', '--record', bag)
@@ -147,6 +190,9 @@ def test_sigkill_leaves_a_readable_bag_up_to_the_last_split(sim, ros_node, wait_
     assert len(stamps) > 100 and stamps == [k * 10_000_000 for k in range(len(stamps))]
     replayed = cli('replay', bag)
     assert replayed.returncode == 0, replayed.stdout + replayed.stderr
+    leftovers = [p.name for p in bag.glob('.split_*')]
+    assert all(f'note: {name} is the split the recorder was writing when it was killed'
+               in replayed.stderr for name in leftovers)
 
 
 @pytest.fixture(scope='module')

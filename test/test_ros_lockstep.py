@@ -5,13 +5,12 @@ written), never fixed sleeps."""
 
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
 from affine_joint_sim.ros.lockstep import LockstepGate
-from helpers import ros_client
+from helpers.logged_node import LoggedNode
 from helpers.ros_client import DT_NS, Inbox, stamp_ns
 
 CONTROLLER = Path(__file__).resolve().parent / 'helpers' / 'plain_controller.py'
@@ -48,33 +47,6 @@ def test_gate_republishes_and_reports_while_it_waits():
     gate.answer(0)
     clock.now += 5.0
     assert not gate.republish_due() and gate.report_due() is None
-
-
-class LoggedNode:
-    """The node in a child process whose output goes to a file the test can watch."""
-
-    def __init__(self, tmp_path, ros_node, wait_for, *flags):
-        self.log = tmp_path / f'node_{time.monotonic_ns()}.log'
-        self.process = subprocess.Popen(
-            [sys.executable, '-m', 'affine_joint_sim.cli', 'run', *map(str, flags)],
-            stdout=self.log.open('w'), stderr=subprocess.STDOUT)
-        assert wait_for(lambda: self.process.poll() is not None or (
-            ros_node.count_publishers('/joint_states') > 0 and
-            '/affine_joint_sim/step' in ros_client.node_services(ros_node)), timeout=30.0)
-        assert self.process.poll() is None, self.log.read_text()
-
-    def said(self, text):
-        return text in self.log.read_text()
-
-    def stop(self):
-        if self.process.poll() is None:
-            self.process.send_signal(subprocess.signal.SIGINT)
-        try:
-            self.process.wait(timeout=10.0)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
-        return self.log.read_text()
 
 
 @pytest.fixture

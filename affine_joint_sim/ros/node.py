@@ -90,6 +90,7 @@ class SimNode(Node):
         self._warned_publishers = 0     # publisher count last warned about (lockstep)
         self.oversized = 0              # command messages dropped for max_command_bytes
         self.taken = 0                  # command messages taken (decoded and queued)
+        self.recording_stopped = None   # why recording stopped early, if it did
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
         self._stepping_thread = None
@@ -111,8 +112,7 @@ class SimNode(Node):
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
                          'command_joints': self.commands.array_joints})
-            if self.recorder is not None:
-                self.recorder.flush()       # metadata.yaml and the scene exist from now on
+            self._to_bag(lambda bag: bag.flush())     # metadata.yaml and the scene exist now
         except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
             self.close_bag()
             raise
@@ -224,9 +224,25 @@ class SimNode(Node):
 
     def _publish_and_record(self, publisher, msg, t_ns):
         """Record first: the bag keeps every computed step even if a shutdown stops the publish."""
-        if self.recorder is not None:
-            self.recorder.write(publisher.topic_name, t_ns, serialize_message(msg))
+        self._to_bag(lambda bag: bag.write(publisher.topic_name, t_ns, serialize_message(msg)))
         publisher.publish(msg)
+
+    def _to_bag(self, write):
+        """Do ``write(recorder)`` if recording. A failure (a full disk, a lost drive) stops the
+        recording, said once with what the bag keeps; the simulation and publishing go on."""
+        if self.recorder is None:
+            return
+        try:
+            write(self.recorder)
+        except OSError as exc:
+            recorder, self.recorder = self.recorder, None
+            recorder.abandon()
+            self._inbox.clear()
+            self.recording_stopped = str(exc)
+            self.get_logger().error(
+                f'recording stopped: {exc}; the bag {recorder.path} stays readable up to its '
+                f'last closed split ({recorder.last_split or "none"}, {recorder.bytes_written} '
+                'bytes in closed splits); the simulation goes on')
 
     def _event(self, event: dict):
         """Publish (and record) an event of the run, e.g. a reset, at the current bag time."""
@@ -373,17 +389,19 @@ class SimNode(Node):
 
     def _record_inbox(self):
         """Record the commands taken since the last step at the current bag time."""
-        if self.recorder is not None:
-            t_ns = self._bag_ns()
-            for topic, raw in self._inbox:
-                self.recorder.write(topic, t_ns, raw)
-        self._inbox.clear()
+        if self._inbox:
+            t_ns, inbox = self._bag_ns(), self._inbox
+
+            def write(bag):
+                for topic, raw in inbox:
+                    bag.write(topic, t_ns, raw)
+            self._to_bag(write)
+        self._inbox = []
 
     def close_bag(self):
         """Finish the bag (if recording): the last split and metadata.yaml."""
-        if self.recorder is not None:
-            self._record_inbox()
-            self.recorder.close()
+        self._record_inbox()
+        self._to_bag(lambda bag: bag.close())
 
     def publish_state(self, again: bool = False):
         """Publish joint_states (and /clock) for the current step; ``again``: the state the
@@ -400,8 +418,7 @@ class SimNode(Node):
             clock = self._clock_msg.clock
             clock.sec, clock.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
             self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
-        if self.recorder is not None:
-            self.recorder.flush_if_due()
+        self._to_bag(lambda bag: bag.flush_if_due())
 
     def _wait_before_step(self) -> float:
         """Wall seconds until the next step is due (inf while paused or awaiting lockstep)."""
@@ -497,8 +514,8 @@ class SimNode(Node):
                     self._serve_requests()
                     wait = self._wait_before_step()
                     if wait > 0.0:
-                        if self.recorder is not None:   # a long pause keeps what is computed
-                            self.recorder.flush_if_due()
+                        # a long pause or wait keeps what is computed
+                        self._to_bag(lambda bag: bag.flush_if_due())
                         self._wake.wait(min(wait, 0.1))
                         continue
                     self.step()
@@ -530,7 +547,8 @@ class SimNode(Node):
                 'angles': dict(zip(self.sim.joint_names, self.sim.angles.tolist())),
                 'taken': self.taken,
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
-                'bag': self.config['record'] or None}
+                'bag': self.config['record'] or None,
+                'recording_stopped': self.recording_stopped}
 
     def destroy_node(self):
         warnings.showwarning = self._previous_showwarning
@@ -613,7 +631,9 @@ def print_summary(summary: dict) -> None:
     print(f'commands taken: {summary["taken"]}' + (
         '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else ''))
     if summary['bag']:
-        print(f'bag: {Path(summary["bag"]).resolve()}')
+        stopped = summary['recording_stopped']
+        print(f'bag: {Path(summary["bag"]).resolve()}' +
+              (f' (recording stopped early: {stopped})' if stopped else ''))
     sys.stdout.flush()
 
 

@@ -69,6 +69,10 @@ class BagRecorder:
         self.path = Path(path)
         if self.path.exists():
             raise FileExistsError(f'{self.path} exists; a bag is never overwritten')
+        longest = f'{self.path.name}_999999{_SUFFIX[storage]}'
+        if len(longest.encode()) > 255:
+            raise OSError(f'{self.path}: the bag name is too long for its split files '
+                          f'({self.path.name}_<k>{_SUFFIX[storage]} must fit 255 bytes)')
         self.storage = storage
         self.topics = {t.name: t for t in topics}
         self.custom_data = dict(custom_data or {})
@@ -99,6 +103,28 @@ class BagRecorder:
         """Close the last split and finalise metadata.yaml."""
         if self._writer is not None:
             self._close_split()
+
+    def abandon(self) -> None:
+        """Stop after a write failed (e.g. a full disk): drop the split being written; the bag
+        stays readable as of its last closed split."""
+        writer, self._writer = self._writer, None
+        try:
+            if writer is not None:
+                writer.abort()
+        except Exception:          # noqa: BLE001 - the writer already failed; drop its split
+            pass
+        shutil.rmtree(self._scratch, ignore_errors=True)
+
+    @property
+    def bytes_written(self) -> int:
+        """Bytes of the closed splits [B]."""
+        return sum((self.path / s['relative_file_paths'][0]).stat().st_size
+                   for s in self._splits)
+
+    @property
+    def last_split(self) -> str | None:
+        """File name of the last closed split, if any."""
+        return self._splits[-1]['relative_file_paths'][0] if self._splits else None
 
     # ---- splits -----------------------------------------------------------------------------
 

@@ -368,6 +368,11 @@ def main(args) -> int:
     wp.config.log_level = wp.LOG_WARNING
     try:
         bag = read_bag(args.bag)
+        if Path(args.bag).is_dir():
+            for leftover in sorted(Path(args.bag).glob('.split_*')):
+                print(f'note: {leftover.name} is the split the recorder was writing when it was '
+                      'killed: not part of the bag (metadata.yaml does not list it); delete it '
+                      'when you no longer need it', file=sys.stderr)
         if args.publish:
             count = publish(bag, args.rate, args.namespace)
             print(f'published {count} commands from {bag.path}')
