@@ -52,14 +52,18 @@ class Stepper:
         scene: a ``Scene`` (or a path to a scene YAML file).
         device: Warp device, ``"cpu"`` (default), ``"cuda"`` or ``"cuda:N"``.
         num_envs: number of environments; ``None`` for a single one without the env axis.
+        on_problem: called with the message of each problem a step reports (once per kind
+            and reset); default: a ``SimulationWarning``.
     """
 
-    def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None):
+    def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None,
+                 on_problem=None):
         if not isinstance(scene, Scene):
             scene = Scene.from_yaml(scene)
         if num_envs is not None and (int(num_envs) != num_envs or num_envs < 1):
             raise ValueError(f'num_envs must be a positive integer or None, got {num_envs!r}')
         self.scene = scene
+        self._on_problem = on_problem
         self.device = wp.get_device(device)
         self._batched = num_envs is not None
         self._envs = 1 if num_envs is None else int(num_envs)
@@ -134,8 +138,8 @@ class Stepper:
         if not finite:
             raise ValueError(f'joint {name!r}: torque must be finite, got {value!r}')
         if over:
-            warnings.warn(f'joint {name!r}: |torque| above effort_limit {limit:g} N·m, clamped',
-                          SimulationWarning, stacklevel=2)
+            self._say(f'joint {name!r}: |torque| above effort_limit {limit:g} N·m, clamped',
+                      stacklevel=3)
             tau = np.clip(tau, -limit, limit)
         self._torque[:, k] = tau
 
@@ -340,11 +344,17 @@ class Stepper:
             bad = (ints[:, i] == 0) & ~rejected if name == 'converged' else ints[:, i] != 0
             if bad.any():
                 self._warned.add(name)
-                warnings.warn(
-                    f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
-                        max_iter=self.scene.solver.newton_max_iter,
-                        residual=float(self._stats_float[:, 0].max())),
-                    SimulationWarning, stacklevel=3)
+                self._say(f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
+                    max_iter=self.scene.solver.newton_max_iter,
+                    residual=float(self._stats_float[:, 0].max())), stacklevel=4)
+
+    def _say(self, message: str, stacklevel: int) -> None:
+        """Report a problem: to ``on_problem``, else as a SimulationWarning attributed to the
+        user's line ``stacklevel`` frames up."""
+        if self._on_problem is not None:
+            self._on_problem(message)
+        else:
+            warnings.warn(message, SimulationWarning, stacklevel=stacklevel)
 
     def _movable(self, name) -> int:
         k = self.scene.joint_index(name)

@@ -164,6 +164,36 @@ def test_an_oversized_command_is_dropped_undecoded_and_stepping_goes_on(sim, ros
     assert 'commands taken: 1; dropped: 1 oversized' in output
 
 
+def test_live_parameter_changes_are_checked_then_applied_between_steps(sim, ros_node,
+                                                                        wait_for):
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    sim('--mode', 'realtime', '--real-time-factor', '2.0')
+    states = Inbox(ros_node, 'joint_states')
+
+    def set_parameter(name, **value):
+        kind = {'double_value': ParameterType.PARAMETER_DOUBLE,
+                'string_value': ParameterType.PARAMETER_STRING}[next(iter(value))]
+        request = SetParameters.Request(parameters=[Parameter(
+            name=name, value=ParameterValue(type=kind, **value))])
+        return call(ros_node, wait_for, SetParameters, '/affine_joint_sim/set_parameters',
+                    request).results[0]
+
+    refused = set_parameter('real_time_factor', double_value=0.0)
+    assert not refused.successful and 'out of range' in refused.reason
+    refused = set_parameter('scene', string_value='arm')
+    assert not refused.successful and 'fixed while the node runs' in refused.reason
+    assert set_parameter('mode', string_value='lockstep').successful
+    # lockstep now: the node holds its state and publishes it again while it waits
+    assert wait_for(lambda: len(states.messages) >= 2 and
+                    stamp_ns(states.messages[-1]) == stamp_ns(states.messages[-2]))
+    held = stamp_ns(states.last)
+    publisher(ros_node, wait_for, 'joint_commands').publish(JointState(name=['shoulder'],
+                                                                       effort=[0.0]))
+    assert wait_for(lambda: stamp_ns(states.last) == held + DT_NS)
+
+
 def test_disabled_torque_is_not_applied(sim, ros_node, wait_for):
     sim('--mode', 'realtime', '--real-time-factor', '2.0')
     states = Inbox(ros_node, 'joint_states')

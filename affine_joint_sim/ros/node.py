@@ -73,9 +73,14 @@ class SimNode(Node):
         except FileNotFoundError as exc:
             raise ConfigError(f"parameter 'scene': {exc}") from None
         try:
-            self.sim = Stepper(self.scene, device=self.config['device'])
+            with warnings.catch_warnings(record=True) as loading:   # the scene's, at load
+                warnings.simplefilter('always', SimulationWarning)
+                self.sim = Stepper(self.scene, device=self.config['device'],
+                                   on_problem=self.get_logger().warning)
         except (ValueError, RuntimeError) as exc:
             raise ConfigError(f"parameter 'device': {exc}") from None
+        for warning in loading:
+            self.get_logger().warning(str(warning.message))
         self.commands = CommandBuffer(
             self.sim.command_joint_names, self.config['command_timeout'],
             array_joints=command_joints(self.config['command_joints'], self.sim),
@@ -98,8 +103,6 @@ class SimNode(Node):
         self.stop_requested = threading.Event()    # set by SIGINT/SIGTERM (see main)
         self._dt_ns = round(self.scene.dt * 1e9)
         self._last_warning: dict[str, float] = {}
-        self._previous_showwarning = warnings.showwarning
-        warnings.showwarning = self._log_simulation_warning
         self._command_topics: list[BagTopic] = []
         self._inbox: list[tuple[str, bytes]] = []     # commands received, not yet recorded
         self._epoch_ns = 0
@@ -116,7 +119,8 @@ class SimNode(Node):
         except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
             self.close_bag()
             raise
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
         self._started = (time.monotonic(), 0)
         self._last_step_wall = self._started[0]
         self.get_logger().info(
@@ -263,12 +267,6 @@ class SimNode(Node):
             self._last_warning[(topic, kind)] = now
             self.get_logger().warning(f'{topic}: {problem}')
 
-    def _log_simulation_warning(self, message, category, *args, **kwargs):
-        if issubclass(category, SimulationWarning):
-            self.get_logger().warning(str(message))
-        else:
-            self._previous_showwarning(message, category, *args, **kwargs)
-
     # ---- services ---------------------------------------------------------------------------
 
     def _in_stepping_thread(self, action):
@@ -330,7 +328,10 @@ class SimNode(Node):
             (False, 'node stopping')
         return response
 
-    def _on_set_parameters(self, parameters):
+    def _check_parameters(self, parameters):
+        """Refuse a change to a parameter that is fixed while running, or an invalid value."""
+        if self._stopping:
+            return SetParametersResult(successful=False, reason='the node is stopping')
         for p in parameters:
             spec = PARAMETERS.get(p.name)
             if spec is None:
@@ -342,6 +343,11 @@ class SimNode(Node):
                 check(p.name, p.value)
             except ConfigError as exc:
                 return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters):
+        """Apply accepted changes between two steps (after they are set: the post-set
+        callback), and record them as an event."""
         changed = {p.name: check(p.name, p.value) for p in parameters if p.name in PARAMETERS}
 
         def apply():
@@ -353,9 +359,8 @@ class SimNode(Node):
             self.pacer.anchor(self.sim.time)
             return True
 
-        if changed and self._in_stepping_thread(apply) is None:
-            return SetParametersResult(successful=False, reason='the node is stopping')
-        return SetParametersResult(successful=True)
+        if changed:
+            self._in_stepping_thread(apply)
 
     # ---- stepping ---------------------------------------------------------------------------
 
@@ -549,10 +554,6 @@ class SimNode(Node):
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
                 'bag': self.config['record'] or None,
                 'recording_stopped': self.recording_stopped}
-
-    def destroy_node(self):
-        warnings.showwarning = self._previous_showwarning
-        return super().destroy_node()
 
 
 def command_joints(value: str, sim) -> list[str]:
