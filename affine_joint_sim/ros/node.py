@@ -37,6 +37,7 @@ from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.lockstep import LockstepGate
+from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check
@@ -101,13 +102,13 @@ class SimNode(Node):
         self._stepping_thread = None
         self._stopping = False                 # the run is over: requests are refused
         self.stop_requested = threading.Event()    # set by SIGINT/SIGTERM (see main)
-        self._dt_ns = round(self.scene.dt * 1e9)
         self._last_warning: dict[str, float] = {}
         self._command_topics: list[BagTopic] = []
         self._inbox: list[tuple[str, bytes]] = []     # commands received, not yet recorded
-        self._epoch_ns = 0
         self.recorder = None
         self._make_interfaces()
+        self.loop = SimLoop(self.sim, self.commands, self.pacer, self.gate,
+                            self._joint_states.select)
         self.recorder = self._open_bag()
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
@@ -251,11 +252,7 @@ class SimNode(Node):
     def _event(self, event: dict):
         """Publish (and record) an event of the run, e.g. a reset, at the current bag time."""
         msg = self.topics['events'].msg_class(data=yaml.safe_dump(event, sort_keys=False))
-        self._publish_and_record(self.events_pub, msg, self._bag_ns())
-
-    def _bag_ns(self) -> int:
-        """Bag time [ns]: simulated time, continued across resets."""
-        return self._epoch_ns + self.sim_time_ns
+        self._publish_and_record(self.events_pub, msg, self.loop.bag_ns)
 
     # ---- commands ---------------------------------------------------------------------------
 
@@ -364,21 +361,11 @@ class SimNode(Node):
 
     # ---- stepping ---------------------------------------------------------------------------
 
-    @property
-    def sim_time_ns(self) -> int:
-        """Simulated time of the current state [ns], from the step counter."""
-        return self.sim.step_count * self._dt_ns
-
     def reset(self):
         """Back to the scene's initial state at t = 0; publishes that state."""
         self._record_inbox()         # taken before the reset: recorded, then cleared by it
-        if self.sim.step_count:
-            self._epoch_ns += self.sim_time_ns + self._dt_ns
-        self.sim.reset()
+        self.loop.reset()
         self._event({'event': 'reset'})
-        self.commands.reset(self._joint_states.select(self.sim.torques))
-        self.pacer.anchor(0.0)
-        self.pacer.restart_window(0.0)
         self._started = (time.monotonic(), 0)
         self._last_step_wall = self._started[0]
         self.publish_state()
@@ -386,16 +373,15 @@ class SimNode(Node):
     def step(self):
         """Record and apply the queued commands, advance one dt, publish the new state."""
         self._record_inbox()
-        for notice in self.commands.apply(self.sim, self.sim.time):
+        for notice in self.loop.step():
             self.get_logger().warning(notice)
-        self.sim.step()
         self._last_step_wall = time.monotonic()
         self.publish_state()
 
     def _record_inbox(self):
         """Record the commands taken since the last step at the current bag time."""
         if self._inbox:
-            t_ns, inbox = self._bag_ns(), self._inbox
+            t_ns, inbox = self.loop.bag_ns, self._inbox
 
             def write(bag):
                 for topic, raw in inbox:
@@ -412,12 +398,12 @@ class SimNode(Node):
         """Publish joint_states (and /clock) for the current step; ``again``: the state the
         lockstep gate waits on, once more and not recorded (it is in the bag already)."""
         if not again:
-            self.gate.expect(self.sim_time_ns)
-        msg = self._joint_states.fill(self.sim, self.sim_time_ns)
+            self.gate.expect(self.loop.sim_time_ns)
+        msg = self._joint_states.fill(self.sim, self.loop.sim_time_ns)
         if again:
             self.state_pub.publish(msg)
             return
-        t_ns = self._bag_ns()
+        t_ns = self.loop.bag_ns
         self._publish_and_record(self.state_pub, msg, t_ns)
         if self.config['publish_clock']:
             clock = self._clock_msg.clock
@@ -427,15 +413,10 @@ class SimNode(Node):
 
     def _wait_before_step(self) -> float:
         """Wall seconds until the next step is due (inf while paused or awaiting lockstep)."""
-        mode = self.config['mode']
-        if self.paused:
-            return float('inf')
-        if mode == 'lockstep' and not self.gate.released:
+        wait = self.loop.wait_before_step(self.config['mode'], self.paused)
+        if wait == float('inf') and not self.paused:
             self._keep_lockstep_alive()
-            return float('inf')
-        if mode == 'realtime':
-            return self.pacer.wait(self.sim.time + self.scene.dt)
-        return 0.0
+        return wait
 
     def _keep_lockstep_alive(self):
         """While lockstep waits: publish the waiting state again (for controllers that joined
@@ -457,8 +438,7 @@ class SimNode(Node):
             f'at t = {self.gate.stamp_ns * 1e-9:.6f} s: {why}')
 
     def _finished(self) -> bool:
-        duration = self.config['duration']
-        return duration > 0.0 and self.sim.step_count >= round(duration / self.scene.dt)
+        return self.loop.finished(self.config['duration'])
 
     def _check_publishers(self):
         """Lockstep: warn (once per count) when more controllers publish commands than the
