@@ -12,20 +12,13 @@ import pytest
 from affine_joint_sim.ros.lockstep import LockstepGate
 from helpers.logged_node import LoggedNode
 from helpers.ros_client import DT_NS, Inbox, stamp_ns
+from helpers.clock import FakeClock
 
 CONTROLLER = Path(__file__).resolve().parent / 'helpers' / 'plain_controller.py'
 
 
-class FakeClock:
-    def __init__(self):
-        self.now = 10.0
-
-    def __call__(self):
-        return self.now
-
-
 def test_gate_counts_answers_to_the_waiting_state_and_drops_stale_ones():
-    gate = LockstepGate(publishers=2, clock=FakeClock())
+    gate = LockstepGate(publishers=2, clock=FakeClock(10.0))
     gate.expect(30 * DT_NS)
     assert not gate.released
     assert gate.answer(30 * DT_NS) and not gate.released
@@ -36,7 +29,7 @@ def test_gate_counts_answers_to_the_waiting_state_and_drops_stale_ones():
 
 
 def test_gate_republishes_and_reports_while_it_waits():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     gate = LockstepGate(publishers=1, republish_every=0.2, report_every=2.0, clock=clock)
     gate.expect(0)
     assert not gate.republish_due() and gate.report_due() is None

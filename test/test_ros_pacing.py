@@ -3,14 +3,7 @@
 import pytest
 
 from affine_joint_sim.ros.pacing import Pacer
-
-
-class FakeClock:
-    def __init__(self):
-        self.now = 100.0
-
-    def __call__(self):
-        return self.now
+from helpers.clock import FakeClock
 
 
 def test_steps_are_due_at_sim_time_over_the_factor():

@@ -51,6 +51,15 @@ def build(t) -> SimpleNamespace:
         return affine_part(wp.outer(f, u_bar))
 
     @wp.func
+    def svd(a: mat33):
+        """(U, σ, V) with A = U diag(σ) Vᵀ (one 3×3 SVD)."""
+        u = mat33()
+        sigma = vec3()
+        v = mat33()
+        wp.svd3(a, u, sigma, v)
+        return u, sigma, v
+
+    @wp.func
     def mass_times(m: scalar, s: vec3, x: vec12):
         """M x with M = blockdiag(m I3, S, S, S), S = diag(s) (COM-centred rest frame)."""
         return vec12(m * x[0], m * x[1], m * x[2], s[0] * x[3], s[1] * x[4], s[2] * x[5],
@@ -71,4 +80,4 @@ def build(t) -> SimpleNamespace:
                            jacobian_transpose=jacobian_transpose,
                            translation_part=translation_part, affine_part=affine_part,
                            direction_jacobian_transpose=direction_jacobian_transpose,
-                           mass_times=mass_times, add_mass=add_mass)
+                           svd=svd, mass_times=mass_times, add_mass=add_mass)

@@ -16,9 +16,9 @@ __all__ = ['build']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the Newton loop for the types namespace ``t``."""
-    vec3, mat33, vec12, scalar = t.vec3, t.mat33, t.vec12, t.scalar
+    mat33, vec12, scalar = t.mat33, t.vec12, t.scalar
     zero, half, one, two = t.zero, t.half, t.one, t.two
-    affine, ortho_energy = t.affine, t.ortho_energy
+    affine, ortho_energy, svd = t.affine, t.ortho_energy, t.svd
     rigid_strain, roundoff = t.rigid_strain, t.energy_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
@@ -28,10 +28,7 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def polar(a: mat33):
         """(R, S) of the polar decomposition A = R S (R = U Vᵀ, S = V Σ Vᵀ of A = U Σ Vᵀ)."""
-        u = mat33()
-        sigma = vec3()
-        v = mat33()
-        wp.svd3(a, u, sigma, v)
+        u, sigma, v = svd(a)
         return u @ wp.transpose(v), v @ wp.diag(sigma) @ wp.transpose(v)
 
     @wp.func

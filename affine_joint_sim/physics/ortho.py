@@ -15,7 +15,7 @@ def build(t) -> SimpleNamespace:
     """Warp functions of the orthogonality potential for the types namespace ``t``."""
     vec3, mat33, mat12, scalar = t.vec3, t.mat33, t.mat12, t.scalar
     zero, four, inv_sqrt2 = t.zero, t.four, t.inv_sqrt2
-    affine_part = t.affine_part
+    affine_part, svd = t.affine_part, t.svd
 
     @wp.func
     def ortho_energy(a: mat33):
@@ -56,10 +56,7 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def ortho_hessian_psd(a: mat33):
         """PSD projection of ∇²‖AAᵀ−I‖² from the closed-form eigensystem of one 3×3 SVD."""
-        u = mat33()
-        sigma = vec3()
-        v = mat33()
-        wp.svd3(a, u, sigma, v)
+        u, sigma, v = svd(a)
         h = mat12()
         for i in range(3):
             ui = vec3(u[0, i], u[1, i], u[2, i])
