@@ -26,6 +26,9 @@ from rosbags.rosbag2 import Reader
 from affine_joint_sim.resources import scene_path as packaged_scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
+from affine_joint_sim.ros.lockstep import LockstepGate
+from affine_joint_sim.ros.loop import SimLoop
+from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.topics import COMMAND_KEYS, load_topics, message_class
 from affine_joint_sim.scene import Scene, SceneError
@@ -174,41 +177,44 @@ class _Resimulation:
             self.sim = Stepper(scene, device=device)
         except (ValueError, RuntimeError) as exc:
             raise ReplayError(f'--device {device}: {exc}') from None
-        self.dt_ns = round(scene.dt * 1e9)
         self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'))
         self.wrapped = self.states.wrapped
         self.buffer = CommandBuffer(
             self.sim.command_joint_names,
             drive_joints=[j.name for j in scene.joints if j.drive is not None],
             effort_bounds=self.states.select(self.sim.step_effort_bounds))
+        # the node's own loop; its pacer and lockstep gate stay idle: replay runs flat out
+        self.loop = SimLoop(self.sim, self.buffer, Pacer(), LockstepGate(), self.states.select)
         self.on_state = on_state
         self.reset(0)
 
+    @property
+    def epoch_ns(self) -> int:
+        return self.loop.epoch_ns
+
     def reset(self, epoch_ns: int):
-        """Initial state; bag time ``epoch_ns`` [ns] is its t = 0. Pending commands are dropped."""
-        self.sim.reset()
-        self.buffer.reset(self.states.select(self.sim.torques))
+        """Initial state; bag time ``epoch_ns`` [ns] is its t = 0 (the bag's reset event, which
+        the node's bag-time rule put there). Pending commands are dropped."""
+        self.loop.reset()
+        self.loop.epoch_ns = epoch_ns
         self.pending: list[_Message] = []
-        self.epoch_ns = epoch_ns
         self.previous = self.current = self._sample()
 
     def _sample(self):
-        sample = (self.sim.step_count * self.dt_ns, self.states.select(self.sim.angles),
+        sample = (self.loop.sim_time_ns, self.states.select(self.sim.angles),
                   self.states.select(self.sim.velocities))
         if self.on_state is not None:
-            self.on_state(self.epoch_ns + sample[0], sample[0], self.sim)
+            self.on_state(self.loop.bag_ns, sample[0], self.sim)
         return sample
 
     def step(self):
         """Apply the commands due at the current time, then advance one dt."""
-        now = self.epoch_ns + self.sim.step_count * self.dt_ns
+        now = self.loop.bag_ns
         due = [m for m in self.pending if m.t_ns <= now + _EPS_NS]
         self.pending = [m for m in self.pending if m.t_ns > now + _EPS_NS]
         for m in due:
-            self.buffer.take(m.kind, m.joint,
-                             m.decode())
-        self.buffer.apply(self.sim, self.sim.time)
-        self.sim.step()
+            self.buffer.take(m.kind, m.joint, m.decode())
+        self.loop.step()
         self.previous, self.current = self.current, self._sample()
 
     def at(self, stamp_ns: int):
