@@ -62,3 +62,40 @@ def test_realtime_waits_for_the_pacer(factor):
     loop.pacer.anchor(0.0)
     wait = loop.wait_before_step('realtime', paused=False)
     assert 0.0 < wait <= 0.01 / factor
+
+
+class FailingBag:
+    """A BagRecorder stand-in whose writes fail like a full disk after ``room`` of them."""
+
+    def __init__(self, room):
+        self.room, self.written, self.abandoned = room, [], False
+        self.path, self.last_split, self.bytes_written = 'bag', 'bag_0.mcap', 1234
+
+    def write(self, topic, t_ns, raw):
+        if len(self.written) >= self.room:
+            raise OSError(28, 'No space left on device')
+        self.written.append((topic, t_ns, raw))
+
+    def abandon(self):
+        self.abandoned = True
+
+
+def test_recording_records_commands_at_their_step_and_stops_on_a_failed_write():
+    from affine_joint_sim.ros.recording import RunRecording
+
+    said = []
+    bag = FailingBag(room=3)
+    recording = RunRecording(bag, said.append)
+    recording.take('/cmd', b'a')
+    recording.take('/cmd', b'b')
+    recording.record_taken(5)
+    assert bag.written == [('/cmd', 5, b'a'), ('/cmd', 5, b'b')]
+    recording.write('/joint_states', 5, b's')
+    recording.write('/joint_states', 6, b't')            # the disk is full now
+    assert not recording.active and bag.abandoned and len(said) == 1
+    assert 'No space left on device' in recording.stopped
+    assert 'last closed split (bag_0.mcap, 1234 bytes' in said[0]
+    recording.take('/cmd', b'c')
+    recording.record_taken(7)
+    recording.close()                                     # nothing more, nothing raised
+    assert len(said) == 1

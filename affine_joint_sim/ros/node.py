@@ -40,6 +40,7 @@ from affine_joint_sim.ros.lockstep import LockstepGate
 from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
+from affine_joint_sim.ros.recording import RunRecording
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check
 from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, load_topics
 from affine_joint_sim.scene import Scene, SceneError
@@ -96,7 +97,6 @@ class SimNode(Node):
         self._warned_publishers = 0     # publisher count last warned about (lockstep)
         self.oversized = 0              # command messages dropped for max_command_bytes
         self.taken = 0                  # command messages taken (decoded and queued)
-        self.recording_stopped = None   # why recording stopped early, if it did
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
         self._stepping_thread = None
@@ -104,19 +104,18 @@ class SimNode(Node):
         self.stop_requested = threading.Event()    # set by SIGINT/SIGTERM (see main)
         self._last_warning: dict[str, float] = {}
         self._command_topics: list[BagTopic] = []
-        self._inbox: list[tuple[str, bytes]] = []     # commands received, not yet recorded
-        self.recorder = None
+        self.recording = RunRecording(None, self.get_logger().error)
         self._make_interfaces()
         self.loop = SimLoop(self.sim, self.commands, self.pacer, self.gate,
                             self._joint_states.select)
-        self.recorder = self._open_bag()
+        self.recording = RunRecording(self._open_bag(), self.get_logger().error)
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
             self._publish_and_record(self.scene_pub, scene_msg, 0)
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
                          'command_joints': self.commands.array_joints})
-            self._to_bag(lambda bag: bag.flush())     # metadata.yaml and the scene exist now
+            self.recording.flush()      # metadata.yaml and the scene exist from now on
         except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
             self.close_bag()
             raise
@@ -206,8 +205,7 @@ class SimNode(Node):
                     if self.gate.released:
                         self._wake.notify()
                 self.taken += 1
-                if self.recorder is not None:
-                    self._inbox.append((name, raw))
+                self.recording.take(name, raw)
                 for problem in self.commands.take(key, joint, msg):
                     self._reject(name, problem)
 
@@ -229,25 +227,9 @@ class SimNode(Node):
 
     def _publish_and_record(self, publisher, msg, t_ns):
         """Record first: the bag keeps every computed step even if a shutdown stops the publish."""
-        self._to_bag(lambda bag: bag.write(publisher.topic_name, t_ns, serialize_message(msg)))
+        if self.recording.active:
+            self.recording.write(publisher.topic_name, t_ns, serialize_message(msg))
         publisher.publish(msg)
-
-    def _to_bag(self, write):
-        """Do ``write(recorder)`` if recording. A failure (a full disk, a lost drive) stops the
-        recording, said once with what the bag keeps; the simulation and publishing go on."""
-        if self.recorder is None:
-            return
-        try:
-            write(self.recorder)
-        except OSError as exc:
-            recorder, self.recorder = self.recorder, None
-            recorder.abandon()
-            self._inbox.clear()
-            self.recording_stopped = str(exc)
-            self.get_logger().error(
-                f'recording stopped: {exc}; the bag {recorder.path} stays readable up to its '
-                f'last closed split ({recorder.last_split or "none"}, {recorder.bytes_written} '
-                'bytes in closed splits); the simulation goes on')
 
     def _event(self, event: dict):
         """Publish (and record) an event of the run, e.g. a reset, at the current bag time."""
@@ -363,7 +345,7 @@ class SimNode(Node):
 
     def reset(self):
         """Back to the scene's initial state at t = 0; publishes that state."""
-        self._record_inbox()         # taken before the reset: recorded, then cleared by it
+        self.recording.record_taken(self.loop.bag_ns)   # taken before the reset: recorded
         self.loop.reset()
         self._event({'event': 'reset'})
         self._started = (time.monotonic(), 0)
@@ -372,27 +354,16 @@ class SimNode(Node):
 
     def step(self):
         """Record and apply the queued commands, advance one dt, publish the new state."""
-        self._record_inbox()
+        self.recording.record_taken(self.loop.bag_ns)
         for notice in self.loop.step():
             self.get_logger().warning(notice)
         self._last_step_wall = time.monotonic()
         self.publish_state()
 
-    def _record_inbox(self):
-        """Record the commands taken since the last step at the current bag time."""
-        if self._inbox:
-            t_ns, inbox = self.loop.bag_ns, self._inbox
-
-            def write(bag):
-                for topic, raw in inbox:
-                    bag.write(topic, t_ns, raw)
-            self._to_bag(write)
-        self._inbox = []
-
     def close_bag(self):
         """Finish the bag (if recording): the last split and metadata.yaml."""
-        self._record_inbox()
-        self._to_bag(lambda bag: bag.close())
+        self.recording.record_taken(self.loop.bag_ns)
+        self.recording.close()
 
     def publish_state(self, again: bool = False):
         """Publish joint_states (and /clock) for the current step; ``again``: the state the
@@ -409,7 +380,7 @@ class SimNode(Node):
             clock = self._clock_msg.clock
             clock.sec, clock.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
             self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
-        self._to_bag(lambda bag: bag.flush_if_due())
+        self.recording.flush_if_due()
 
     def _wait_before_step(self) -> float:
         """Wall seconds until the next step is due (inf while paused or awaiting lockstep)."""
@@ -500,7 +471,7 @@ class SimNode(Node):
                     wait = self._wait_before_step()
                     if wait > 0.0:
                         # a long pause or wait keeps what is computed
-                        self._to_bag(lambda bag: bag.flush_if_due())
+                        self.recording.flush_if_due()
                         self._wake.wait(min(wait, 0.1))
                         continue
                     self.step()
@@ -533,7 +504,7 @@ class SimNode(Node):
                 'taken': self.taken,
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
                 'bag': self.config['record'] or None,
-                'recording_stopped': self.recording_stopped}
+                'recording_stopped': self.recording.stopped}
 
 
 def command_joints(value: str, sim) -> list[str]:
