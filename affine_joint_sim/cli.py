@@ -61,7 +61,7 @@ def _on_off(text: str) -> bool:
 def _run(args, ros_args) -> int:
     from rclpy.parameter import Parameter
 
-    from affine_joint_sim.ros import node
+    from affine_joint_sim.ros import run_node as node
     from affine_joint_sim.ros.parameters import PARAMETERS
 
     overrides = [Parameter(name, value=getattr(args, name)) for name in PARAMETERS

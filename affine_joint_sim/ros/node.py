@@ -5,30 +5,23 @@ main thread steps. They share one lock, so a command whose callback ran before s
 computed applies to step n, and a service never lands in the middle of a step. In lockstep
 mode a ``LockstepGate`` decides when the next step may go: it counts the answers to the
 published state, drops stale ones, has the waiting state published again for controllers that
-join late, and has the node say what it waits for. Each step
-publishes ``joint_states`` (and ``/clock``) stamped with the step counter's simulated time.
-(Running the callbacks between steps in one thread would cost ~0.2 ms per step: rclpy builds
-its wait set in Python.) The node does no physics itself.
-
-    python -m affine_joint_sim.ros.node --ros-args --params-file msg_configs/node_params.yaml
+join late, and has the node say what it waits for. Each step publishes ``joint_states`` (and
+``/clock``) stamped with the step counter's simulated time. (Running the callbacks between
+steps in one thread would cost ~0.2 ms per step: rclpy builds its wait set in Python.) The
+node does no physics itself: its stepping is a ``SimLoop``, its bag a ``RunRecording``, and
+``run_node`` is its process (signals, exit status, summary).
 """
 
-import signal
-import sys
 import threading
-from pathlib import Path
 import time
 import warnings
 
-import rclpy
 import yaml
 from rclpy.duration import Duration
 from rclpy.exceptions import InvalidParameterTypeException
-from rclpy.executors import (ExternalShutdownException, ShutdownException,
-                             SingleThreadedExecutor)
+from rclpy.executors import ExternalShutdownException, ShutdownException
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message, serialize_message
-from rclpy.signals import SignalHandlerOptions
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from std_srvs.srv import SetBool, Trigger
@@ -41,12 +34,12 @@ from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.recording import RunRecording
-from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check
+from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
 from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, load_topics
-from affine_joint_sim.scene import Scene, SceneError
+from affine_joint_sim.scene import Scene
 from affine_joint_sim.stepper import SimulationWarning, Stepper
 
-__all__ = ['SimNode', 'main']
+__all__ = ['SimNode']
 
 NODE_NAME = 'affine_joint_sim'
 _WARN_EVERY = 2.0       # wall seconds between two warnings about the same topic
@@ -505,89 +498,3 @@ class SimNode(Node):
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
                 'bag': self.config['record'] or None,
                 'recording_stopped': self.recording.stopped}
-
-
-def command_joints(value: str, sim) -> list[str]:
-    """The joints of the command arrays from parameter ``command_joints`` (comma-separated;
-    empty: every moving joint in scene order). Raises ConfigError naming the valid ones."""
-    valid = sim.command_joint_names
-    names = [n.strip() for n in value.split(',') if n.strip()] or valid
-    wrong = [n for n in names if n not in valid]
-    if wrong or len(set(names)) != len(names):
-        raise ConfigError(f"parameter 'command_joints': {', '.join(wrong) or 'a repeated joint'}"
-                          f" is not a moving joint of the scene (valid, once each: "
-                          f"{', '.join(valid)})")
-    return names
-
-
-def main(args=None, parameter_overrides=None) -> int:
-    """Run the node until ``duration`` or SIGINT/SIGTERM; print the run's summary on stdout.
-
-    The signals are this function's, not rclpy's: rclpy's handlers shut the context down at
-    once, under the executor thread and the bag writer, which crashed 1 run in ~20 with a
-    segfault at exit. Here a signal only asks the stepping loop to stop; the executor, the bag,
-    the node and then the context are closed in that order. (A signal while the node is still
-    being built interrupts the build.)
-
-    Returns the exit status: 0, or 2 for an invalid parameter or scene (one line on stderr).
-    """
-    import warp as wp
-
-    wp.config.log_level = wp.LOG_WARNING    # the node reports through ROS logging and its summary
-    try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except _rclpy.UnknownROSArgsError as exc:
-        print(f'affine-joint-sim: error: unknown ROS arguments: {exc}', file=sys.stderr)
-        return 2
-    except _rclpy.RCLError as exc:
-        print(f'affine-joint-sim: error: ROS arguments: {exc}', file=sys.stderr)
-        return 2
-    node = None
-
-    def on_signal(signum, frame):
-        if node is None:
-            raise KeyboardInterrupt
-        node.stop_requested.set()
-
-    previous = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        node = SimNode(parameter_overrides=parameter_overrides)
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        node.run(executor)
-    except (ConfigError, SceneError) as exc:
-        print(f'affine-joint-sim: error: {exc}', file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.close_bag()
-            print_summary(node.summary())
-            node.destroy_node()
-        rclpy.try_shutdown()
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-    return 0
-
-
-def print_summary(summary: dict) -> None:
-    """The run's figures, for people (stdout)."""
-    print(f'{summary["steps"]} steps, {summary["sim_time"]:.3f} s simulated in '
-          f'{summary["wall_time"]:.3f} s wall ({summary["mode"]}): '
-          f'{summary["steps_per_second"]:.0f} steps/s, real-time factor '
-          f'{summary["real_time_factor"]:.3g}')
-    print('final angles [rad]: ' + ', '.join(f'{k} {v:.6f}'
-                                              for k, v in summary['angles'].items()))
-    dropped = {k: v for k, v in summary['dropped'].items() if v}
-    print(f'commands taken: {summary["taken"]}' + (
-        '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else ''))
-    if summary['bag']:
-        stopped = summary['recording_stopped']
-        print(f'bag: {Path(summary["bag"]).resolve()}' +
-              (f' (recording stopped early: {stopped})' if stopped else ''))
-    sys.stdout.flush()
-
-
-if __name__ == '__main__':
-    sys.exit(main(sys.argv))

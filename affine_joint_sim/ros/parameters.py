@@ -7,7 +7,8 @@
 import math
 from dataclasses import dataclass
 
-__all__ = ['MODES', 'STORAGES', 'PARAMETERS', 'ParameterSpec', 'ConfigError', 'check']
+__all__ = ['MODES', 'STORAGES', 'PARAMETERS', 'ParameterSpec', 'ConfigError', 'check',
+           'command_joints']
 
 MODES = ('realtime', 'fast', 'lockstep')
 STORAGES = ('mcap', 'sqlite3')
@@ -85,3 +86,16 @@ def check(name: str, value):
             raise ConfigError(f'parameter {name!r}: {value!r} is out of range (must be finite '
                               f'and {bound})')
     return value
+
+
+def command_joints(value: str, sim) -> list[str]:
+    """The joints of the command arrays from parameter ``command_joints`` (comma-separated;
+    empty: every moving joint in scene order). Raises ConfigError naming the valid ones."""
+    valid = sim.command_joint_names
+    names = [n.strip() for n in value.split(',') if n.strip()] or valid
+    wrong = [n for n in names if n not in valid]
+    if wrong or len(set(names)) != len(names):
+        raise ConfigError(f"parameter 'command_joints': {', '.join(wrong) or 'a repeated joint'}"
+                          f" is not a moving joint of the scene (valid, once each: "
+                          f"{', '.join(valid)})")
+    return names
