@@ -119,6 +119,17 @@ class Stepper:
         """The joints that take a torque or force command: every joint but fixed ones."""
         return [j.name for j in self.scene.joints if j.type != 'fixed']
 
+    @property
+    def command_joint_index(self) -> np.ndarray:
+        """Scene indices of ``command_joint_names`` (to select them from per-joint arrays)."""
+        return np.array([k for k, j in enumerate(self.scene.joints) if j.type != 'fixed'],
+                        dtype=np.intp)
+
+    @property
+    def drive_joint_names(self) -> list[str]:
+        """The joints that have a drive (take a target with ``set_target``)."""
+        return [j.name for j in self.scene.joints if j.drive is not None]
+
     def set_torque(self, name: str, value) -> None:
         """Set joint ``name``'s external torque τ [N·m] (force [N] for a prismatic joint),
         held until changed.
@@ -155,9 +166,8 @@ class Stepper:
         so does a joint without a ``drive``."""
         k = self.scene.joint_index(name)
         if self.scene.joints[k].drive is None:
-            with_drive = [j.name for j in self.scene.joints if j.drive is not None]
             raise ValueError(f'joint {name!r} has no drive; joints with one: '
-                             f'{", ".join(with_drive) or "none"}')
+                             f'{", ".join(self.drive_joint_names) or "none"}')
         target = self._per_env(name, value, np.float64)
         if not np.all(np.isfinite(target)):
             raise ValueError(f'joint {name!r}: target must be finite, got {value!r}')

@@ -14,8 +14,7 @@ DT_NS = 10_000_000
 
 def make_loop():
     sim = Stepper('msg_configs/scenes/pendulum.yaml')
-    loop = SimLoop(sim, CommandBuffer(sim.command_joint_names), Pacer(), LockstepGate(),
-                   lambda values: values)
+    loop = SimLoop(sim, CommandBuffer.for_stepper(sim), Pacer(), LockstepGate())
     loop.reset()
     return loop
 

@@ -37,6 +37,14 @@ class CommandBuffer:
         self._no_drive_said: set[str] = set()
         self.reset([0.0] * len(self.joint_names))
 
+    @classmethod
+    def for_stepper(cls, sim, command_timeout: float = 0.0,
+                    array_joints: list[str] | None = None) -> 'CommandBuffer':
+        """The buffer of a Stepper's command joints, with its drives and its step bounds."""
+        return cls(sim.command_joint_names, command_timeout, array_joints=array_joints,
+                   drive_joints=sim.drive_joint_names,
+                   effort_bounds=sim.step_effort_bounds[sim.command_joint_index])
+
     def reset(self, torques, sim_time: float = 0.0) -> None:
         """Forget pending commands; ``torques`` [N·m] (the scene's) count as commanded at
         ``sim_time`` [s]."""

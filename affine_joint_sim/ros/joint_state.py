@@ -22,9 +22,9 @@ class JointStateFiller:
 
     def __init__(self, sim, msg_class):
         self.names = sim.command_joint_names
-        moving = [k for k, kind in enumerate(sim.joint_types) if kind != 'fixed']
+        moving = sim.command_joint_index
         # without fixed joints every array is sent as it is (no copy per step)
-        self.index = None if len(moving) == len(sim.joint_types) else np.array(moving)
+        self.index = None if len(moving) == len(sim.joint_types) else moving
         self.wrapped = np.array([j.angle_mode == 'wrapped' and j.type == 'revolute'
                                  for j in sim.scene.joints])[moving]
         self.msg = msg_class()

@@ -18,13 +18,10 @@ class SimLoop:
         commands: the CommandBuffer its commands go through.
         pacer: the realtime schedule (Pacer).
         gate: the lockstep gate (LockstepGate).
-        state_joints: selects the command joints' entries of a per-joint array
-            (JointStateFiller.select), for the torques the buffer starts from.
     """
 
-    def __init__(self, sim, commands, pacer, gate, state_joints):
+    def __init__(self, sim, commands, pacer, gate):
         self.sim, self.commands, self.pacer, self.gate = sim, commands, pacer, gate
-        self._select = state_joints
         self.dt_ns = round(sim.dt * 1e9)
         self.epoch_ns = 0
 
@@ -44,7 +41,7 @@ class SimLoop:
         if self.sim.step_count:
             self.epoch_ns += self.sim_time_ns + self.dt_ns
         self.sim.reset()
-        self.commands.reset(self._select(self.sim.torques))
+        self.commands.reset(self.sim.torques[self.sim.command_joint_index])
         self.pacer.anchor(0.0)
         self.pacer.restart_window(0.0)
 

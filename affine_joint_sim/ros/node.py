@@ -76,12 +76,9 @@ class SimNode(Node):
             raise ConfigError(f"parameter 'device': {exc}") from None
         for warning in loading:
             self.get_logger().warning(str(warning.message))
-        self.commands = CommandBuffer(
-            self.sim.command_joint_names, self.config['command_timeout'],
-            array_joints=command_joints(self.config['command_joints'], self.sim),
-            drive_joints=[j.name for j in self.scene.joints if j.drive is not None],
-            effort_bounds=[b for b, kind in zip(self.sim.step_effort_bounds,
-                                                self.sim.joint_types) if kind != 'fixed'])
+        self.commands = CommandBuffer.for_stepper(
+            self.sim, self.config['command_timeout'],
+            array_joints=command_joints(self.config['command_joints'], self.sim))
         self.pacer = Pacer(self.config['real_time_factor'])
         self.topics = load_topics()
         self.paused = False
@@ -97,10 +94,8 @@ class SimNode(Node):
         self.stop_requested = threading.Event()    # set by SIGINT/SIGTERM (see main)
         self._last_warning: dict[str, float] = {}
         self._command_topics: list[BagTopic] = []
-        self.recording = RunRecording(None, self.get_logger().error)
         self._make_interfaces()
-        self.loop = SimLoop(self.sim, self.commands, self.pacer, self.gate,
-                            self._joint_states.select)
+        self.loop = SimLoop(self.sim, self.commands, self.pacer, self.gate)
         self.recording = RunRecording(self._open_bag(), self.get_logger().error)
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())

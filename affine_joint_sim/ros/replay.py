@@ -179,12 +179,9 @@ class _Resimulation:
             raise ReplayError(f'--device {device}: {exc}') from None
         self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'))
         self.wrapped = self.states.wrapped
-        self.buffer = CommandBuffer(
-            self.sim.command_joint_names,
-            drive_joints=[j.name for j in scene.joints if j.drive is not None],
-            effort_bounds=self.states.select(self.sim.step_effort_bounds))
+        self.buffer = CommandBuffer.for_stepper(self.sim)
         # the node's own loop; its pacer and lockstep gate stay idle: replay runs flat out
-        self.loop = SimLoop(self.sim, self.buffer, Pacer(), LockstepGate(), self.states.select)
+        self.loop = SimLoop(self.sim, self.buffer, Pacer(), LockstepGate())
         self.on_state = on_state
         self.reset(0)
 
