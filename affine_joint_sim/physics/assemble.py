@@ -11,8 +11,6 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import PRISMATIC
-
 __all__ = ['build']
 
 
@@ -54,8 +52,8 @@ def build(t) -> SimpleNamespace:
                          bdf2: int):
         """Joint k's state-dependent blocks (prismatic axis terms) and its coordinate terms'
         gradient and Gauss–Newton blocks, where they are not zero."""
-        if model.joint_type[k] == PRISMATIC:
-            h_pp, h_pc, h_cc = joint_state_blocks(model, q, env, k)
+        h_pp, h_pc, h_cc, has = joint_state_blocks(model, q, env, k)
+        if has != 0:
             add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
         if model.joint_state_terms[k] != 0:
             e, d1, d2 = coordinate_terms(model, state, control, env, k,

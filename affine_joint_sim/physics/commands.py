@@ -8,8 +8,6 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import FIXED
-
 __all__ = ['build']
 
 
@@ -18,7 +16,7 @@ def build(t) -> SimpleNamespace:
     scalar, zero = t.scalar, t.zero
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
-    joint_apply_command = t.joint_apply_command
+    joint_takes_command, joint_apply_command = t.joint_takes_command, t.joint_apply_command
 
     @wp.func
     def apply_commands(model: Model, state: State, control: Control, scratch: Scratch,
@@ -30,7 +28,7 @@ def build(t) -> SimpleNamespace:
         dropped = int(0)
         for k in range(model.joint_parent.shape[0]):
             tau = control.joint_torque[env, k]
-            if control.joint_enabled[env, k] == 0 or model.joint_type[k] == FIXED:
+            if control.joint_enabled[env, k] == 0 or joint_takes_command(model, k) == 0:
                 state.joint_effort[env, k] = zero
                 continue
             state.joint_effort[env, k] = tau

@@ -6,12 +6,11 @@ step. Otherwise velocities follow the integrator (§3.6, §3.7), the BDF2 histor
 joint coordinates advance by their unwrapped increments (§5.3).
 """
 
-import math
 from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import BDF2, CONTINUOUS, REVOLUTE
+from affine_joint_sim.physics.codes import BDF2, CONTINUOUS
 from affine_joint_sim.physics.fields import STAT_FLOAT_NAMES, STAT_INT_NAMES
 
 __all__ = ['build']
@@ -24,10 +23,9 @@ def build(t) -> SimpleNamespace:
     """Warp functions of the commit stage for the types namespace ``t``."""
     scalar, zero, two, three, four = t.scalar, t.zero, t.two, t.three, t.four
     pi, two_pi = t.pi, t.two_pi
-    alias_limit = scalar(0.9 * math.pi)   # |Δθ| per step [rad] beyond which angles alias
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
     joint_coordinate_step, joint_raw_coordinate = t.joint_coordinate_step, t.joint_raw_coordinate
-    joint_gap = t.joint_gap
+    joint_gap, joint_step_aliases = t.joint_gap, t.joint_step_aliases
     s_iterations, s_halvings, s_converged = (_I['newton_iterations'],
                                              _I['line_search_halvings'], _I['converged'])
     s_failures, s_aliased, s_dropped = (_I['line_search_failures'], _I['angle_aliased'],
@@ -69,8 +67,7 @@ def build(t) -> SimpleNamespace:
         for k in range(model.joint_parent.shape[0]):
             step = joint_coordinate_step(model, state.q, env, k,
                                          state.joint_coordinate[env, k])
-            if model.joint_type[k] == REVOLUTE and wp.abs(step) > alias_limit:
-                aliased = 1
+            aliased = aliased | joint_step_aliases(model, k, step)
         return aliased
 
     @wp.func

@@ -7,11 +7,12 @@ so the stages (assembly, prediction, commit) never branch on types. Fixed joints
 coordinate (0) and no command.
 """
 
+import math
 from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import PRISMATIC, REVOLUTE
+from affine_joint_sim.physics.codes import FIXED, PRISMATIC, REVOLUTE
 from affine_joint_sim.physics.joints import fixed, prismatic, revolute
 
 __all__ = ['build']
@@ -21,6 +22,7 @@ def build(t) -> SimpleNamespace:
     """Dispatching Warp functions over joint types for the types namespace ``t``."""
     vec12, mat12, scalar = t.vec12, t.mat12, t.scalar
     zero, two_pi = t.zero, t.two_pi
+    alias_limit = scalar(0.9 * math.pi)   # |Δθ| per step [rad] beyond which angles alias
     Model, Scratch = t.structs.Model, t.structs.Scratch
     rev, pri, fix = revolute.build(t), prismatic.build(t), fixed.build(t)
     rev_energy, pri_energy, fix_energy = rev.energy, pri.energy, fix.energy
@@ -64,15 +66,17 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def joint_state_blocks(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int):
-        """(H_PP, H_PC, H_CC) of joint k's constraint terms that are not linear in q (the
-        linear ones are in the model's constant blocks)."""
+        """(H_PP, H_PC, H_CC, 1) of joint k's constraint terms that are not linear in q (the
+        linear ones are in the model's constant blocks), or zeros and 0 when it has none."""
         h_pp = mat12()
         h_pc = mat12()
         h_cc = mat12()
+        has = int(0)
         if model.joint_type[k] == PRISMATIC:
             h_pp, h_pc, h_cc = pri_state_blocks(model, q[env, model.joint_parent[k]],
                                                 q[env, model.joint_child[k]], k)
-        return h_pp, h_pc, h_cc
+            has = 1
+        return h_pp, h_pc, h_cc, has
 
     @wp.func
     def joint_gap(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int):
@@ -113,6 +117,15 @@ def build(t) -> SimpleNamespace:
         return delta
 
     @wp.func
+    def joint_step_aliases(model: Model, k: int, step: scalar):
+        """1 if a coordinate increment ``step`` cannot be told from one a turn apart: a
+        revolute Δθ beyond 0.9π (physics_spec §5.3)."""
+        out = int(0)
+        if model.joint_type[k] == REVOLUTE and wp.abs(step) > alias_limit:
+            out = 1
+        return out
+
+    @wp.func
     def joint_coordinate_gradients(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int):
         """(∇_P x, ∇_C x) of joint k's coordinate."""
         qp = q[env, model.joint_parent[k]]
@@ -125,6 +138,14 @@ def build(t) -> SimpleNamespace:
         elif kind == PRISMATIC:
             g_parent, g_child = pri_distance_gradients(model, qp, qc, k)
         return g_parent, g_child
+
+    @wp.func
+    def joint_takes_command(model: Model, k: int):
+        """1 if joint k takes a torque or force command (a fixed joint takes none)."""
+        out = int(1)
+        if model.joint_type[k] == FIXED:
+            out = 0
+        return out
 
     @wp.func
     def joint_apply_command(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
@@ -145,7 +166,9 @@ def build(t) -> SimpleNamespace:
                            joint_state_blocks=joint_state_blocks, joint_gap=joint_gap,
                            joint_raw_coordinate=joint_raw_coordinate,
                            joint_coordinate_step=joint_coordinate_step,
+                           joint_step_aliases=joint_step_aliases,
                            joint_coordinate_gradients=joint_coordinate_gradients,
+                           joint_takes_command=joint_takes_command,
                            joint_apply_command=joint_apply_command,
                            lever_arm_force=rev.lever_arm_force,
                            couple_acceleration=rev.couple_acceleration)
