@@ -101,11 +101,7 @@ def sim(spawn, ros_node, wait_for):
 
     def start(*flags):
         child = spawn('-m', 'affine_joint_sim.cli', 'run', *flags)
-        visible = wait_for(lambda: child.poll() is not None or (
-            ros_node.count_publishers('/joint_states') > 0 and
-            '/affine_joint_sim/step' in ros_client.node_services(ros_node)),
-            timeout=30.0)
-        assert visible and child.poll() is None, child.stop()
+        assert ros_client.wait_until_up(ros_node, wait_for, child), child.stop()
         return child
 
     return start

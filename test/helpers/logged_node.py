@@ -16,10 +16,7 @@ class LoggedNode:
         self.process = subprocess.Popen(
             [sys.executable, '-m', 'affine_joint_sim.cli', 'run', *map(str, flags)],
             stdout=self.log.open('w'), stderr=subprocess.STDOUT)
-        assert wait_for(lambda: self.process.poll() is not None or (
-            ros_node.count_publishers('/joint_states') > 0 and
-            '/affine_joint_sim/step' in ros_client.node_services(ros_node)), timeout=30.0)
-        assert self.process.poll() is None, self.log.read_text()
+        assert ros_client.wait_until_up(ros_node, wait_for, self.process), self.log.read_text()
 
     def said(self, text):
         return text in self.log.read_text()

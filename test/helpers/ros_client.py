@@ -37,6 +37,15 @@ def node_services(node) -> dict:
     return dict(node.get_service_names_and_types_by_node('affine_joint_sim', '/'))
 
 
+def wait_until_up(node, wait_for, process) -> bool:
+    """Wait until the simulator node in ``process`` publishes joint_states and serves ~/step
+    as seen from ``node``, or the process ends; True if it is up."""
+    seen = wait_for(lambda: process.poll() is not None or (
+        node.count_publishers('/joint_states') > 0 and
+        '/affine_joint_sim/step' in node_services(node)), timeout=30.0)
+    return seen and process.poll() is None
+
+
 def publisher(node, wait_for, key, joint=None, name=None):
     topic = TOPICS[key]
     pub = node.create_publisher(topic.msg_class, name or '/' + topic.name(joint), topic.qos)
