@@ -14,13 +14,19 @@ from pathlib import Path
 __all__ = ['run_demo']
 
 
+def _ignore_sigint():
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _start(*args) -> subprocess.Popen:
     """``affine-joint-sim ARGS`` in a child process; its stdout (the report) is captured.
 
-    In a session of its own: a Ctrl-C in the terminal reaches the demo only, which stops the
-    children itself (a child still starting up would print a traceback for it)."""
+    In a session of its own, so a Ctrl-C in the terminal reaches the demo only, which stops
+    the children itself; and with SIGINT ignored until the child installs its own handler (the
+    node's, rclpy's), so a child still starting up prints no traceback for it."""
     return subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
-                            stdout=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_ignore_sigint)
 
 
 def _check_targets(scene: str, targets: dict[str, float]) -> None:
@@ -37,16 +43,18 @@ def _check_targets(scene: str, targets: dict[str, float]) -> None:
 
 
 def _stop(process: subprocess.Popen) -> str:
-    """SIGTERM (a running child prints its report and exits; one still starting up just
-    ends), then SIGKILL if it hangs; its output."""
-    if process.poll() is None:
-        process.send_signal(signal.SIGTERM)
-    try:
-        output, _ = process.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        output, _ = process.communicate()
-    return output or ''
+    """Stop a child and return its output: SIGINT (a running child prints its report and
+    exits), SIGTERM if it is still starting up (it ignores SIGINT until then), SIGKILL if it
+    hangs."""
+    for sig, wait in ((signal.SIGINT, 5.0), (signal.SIGTERM, 25.0)):
+        if process.poll() is None:
+            process.send_signal(sig)
+        try:
+            return process.communicate(timeout=wait)[0] or ''
+        except subprocess.TimeoutExpired:
+            continue
+    process.kill()
+    return process.communicate()[0] or ''
 
 
 def run_demo(scene: str, targets: dict[str, float], duration: float, mode: str,
