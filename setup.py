@@ -20,6 +20,7 @@ setup(
         (share, ['package.xml']),
         (share + '/msg_configs', glob('msg_configs/*.yaml') + glob('msg_configs/*.xml')),
         (share + '/msg_configs/scenes', glob('msg_configs/scenes/*.yaml')),
+        (share + '/msg_configs/robots', glob('msg_configs/robots/*.urdf')),
     ],
     python_requires='>=3.12',
     install_requires=[
@@ -33,6 +34,7 @@ setup(
         'rosbags>=0.11,<0.12',
         'pyyaml',
         'pydantic>=2',
+        'yourdfpy>=0.0.56,<0.1',    # URDF robots (design.md §10); never loads meshes here
     ],
     extras_require={
         'test': ['pytest'],

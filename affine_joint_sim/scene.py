@@ -11,14 +11,23 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import yaml
-from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationError,
-                      model_validator)
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr,
+                      ValidationError, model_validator)
 
 __all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Limit', 'Drive', 'Shape', 'Solver',
-           'Orientation']
+           'Orientation', 'Frame', 'topic_token']
 
-NAME_PATTERN = r'^[A-Za-z_][A-Za-z0-9_]*$'
+# Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
+# names use topic_token(name).
+NAME_PATTERN = r'^[^\s]+$'
+Name = Annotated[str, Field(pattern=NAME_PATTERN)]
 
+
+def topic_token(name: str) -> str:
+    """``name`` as a ROS topic token: runs of characters outside [A-Za-z0-9_] become one
+    ``_`` (no repeated underscores) and a leading digit gets an ``_`` before it."""
+    token = re.sub(r'[^A-Za-z0-9]+', '_', name).strip('_') or '_'
+    return '_' + token if token[0].isdigit() else token
 
 
 def _not_a_boolean(value):
@@ -94,10 +103,17 @@ class Orientation(_Strict):
 
 
 class Body(_Strict):
-    """An affine body; its rest frame is centred at its centre of mass (physics_spec preface §1)."""
+    """An affine body; its rest frame is centred at its centre of mass (physics_spec preface §1).
 
-    name: Annotated[str, Field(pattern=NAME_PATTERN)]
-    shape: Shape
+    Its mass properties come from ``shape`` with ``density`` or ``mass``, or from ``mass`` and
+    ``inertia``: the principal moments of inertia [kg·m²] about the centre of mass, the body
+    axes being the principal axes (a URDF link); a ``shape`` given beside them is drawn only.
+    A fixed body needs neither shape nor inertia (only its mass, which sets joint stiffness).
+    """
+
+    name: Name
+    shape: Shape | None = None
+    inertia: tuple[PositiveFloat, PositiveFloat, PositiveFloat] | None = None
     density: PositiveFloat | None = None
     mass: PositiveFloat | None = None
     position: Vec3 = (0.0, 0.0, 0.0)
@@ -109,9 +125,31 @@ class Body(_Strict):
 
     @model_validator(mode='after')
     def _density_or_mass(self):
+        if self.inertia is not None:
+            if self.mass is None or self.density is not None:
+                raise ValueError('inertia needs mass [kg] (and no density)')
+            ixx, iyy, izz = self.inertia
+            if min(iyy + izz - ixx, ixx + izz - iyy, ixx + iyy - izz) <= 0.0:
+                raise ValueError(f'principal moments {list(self.inertia)} must satisfy the '
+                                 'triangle inequality strictly (each less than the sum of the '
+                                 'other two)')
+            return self
+        if self.shape is None and not (self.fixed and self.mass is not None):
+            raise ValueError('give a shape (or mass and inertia; a fixed body may give mass '
+                             'alone)')
         if (self.density is None) == (self.mass is None):
             raise ValueError('give exactly one of density [kg/m^3] or mass [kg]')
         return self
+
+
+class Frame(_Strict):
+    """A named frame rigidly attached to a body (a URDF link frame), its pose in the body's
+    frame: ``position`` [m] and ``orientation``."""
+
+    name: Name
+    body: str
+    position: Vec3 = (0.0, 0.0, 0.0)
+    orientation: Orientation | None = None
 
 
 class Limit(_Strict):
@@ -141,9 +179,11 @@ class Drive(_Strict):
 
 class Joint(_Strict):
     """A joint: ``revolute`` (UID 18, torque UID 668), ``prismatic`` (UID 20, force UID 667)
-    or ``fixed`` (UID 25). ``torque`` is N·m for revolute and N for prismatic joints."""
+    or ``fixed`` (UID 25). ``torque`` is N·m for revolute and N for prismatic joints.
+    ``initial_position`` is the coordinate it reports at t = 0 [rad | m] (the bodies stand
+    there: a URDF's joint coordinates); limits, drive targets and reports share its origin."""
 
-    name: Annotated[str, Field(pattern=NAME_PATTERN)]
+    name: Name
     type: Literal['revolute', 'prismatic', 'fixed'] = 'revolute'
     parent: str
     child: str
@@ -159,6 +199,7 @@ class Joint(_Strict):
     limit: Limit | None = None
     damping: Annotated[Number, Field(ge=0.0)] = 0.0
     drive: Drive | None = None
+    initial_position: Number = 0.0
 
     @model_validator(mode='after')
     def _keys_of_type(self):
@@ -185,7 +226,7 @@ class Joint(_Strict):
 
 
 _MOVABLE_KEYS = {'x0', 'x1', 'torque', 'enabled', 'torque_model', 'angle_mode', 'effort_limit',
-                 'limit', 'damping', 'drive'}
+                 'limit', 'damping', 'drive', 'initial_position'}
 
 
 class Solver(_Strict):
@@ -209,6 +250,28 @@ class Scene(_Strict):
     solver: Solver = Solver()
     bodies: Annotated[list[Body], Field(min_length=1)]
     joints: list[Joint] = []
+    frames: list[Frame] = []
+    _robot_description: str | None = PrivateAttr(default=None)
+
+    @property
+    def robot_description(self) -> str | None:
+        """The URDF text the scene was built from (None for a scene written as YAML)."""
+        return self._robot_description
+
+    @classmethod
+    def load(cls, path) -> 'Scene':
+        """A scene file: a URDF (``.urdf``) with default settings, or a scene YAML."""
+        if Path(path).suffix.lower() == '.urdf':
+            return cls.from_urdf(path)
+        return cls.from_yaml(path)
+
+    @classmethod
+    def from_urdf(cls, path, **overrides) -> 'Scene':
+        """A robot from a URDF file (design.md §10), with the overrides of a scene YAML's
+        ``urdf:`` entry (``name``, ``dt``, ``gravity``, ``solver``, ``fixed_base``,
+        ``merge_fixed``, ``initial_positions``, ``package_paths``, ``joints``)."""
+        from affine_joint_sim.urdf import scene_from_urdf
+        return scene_from_urdf(cls, Path(path), overrides, source=str(path))
 
     @classmethod
     def from_dict(cls, data, source: str = '<dict>') -> 'Scene':
@@ -236,13 +299,14 @@ class Scene(_Strict):
         except UnicodeDecodeError as exc:
             raise SceneError(f'{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); '
                              'a scene is YAML text') from None
-        return cls.from_yaml_text(text, source=str(path))
+        return cls.from_yaml_text(text, source=str(path), base_dir=path.parent)
 
     @classmethod
     def from_yaml_text(cls, text: str, source: str = '<yaml>',
-                       solver_defaults: dict | None = None) -> 'Scene':
+                       solver_defaults: dict | None = None, base_dir=None) -> 'Scene':
         """Validate a scene given as YAML text (e.g. the copy stored in a bag);
-        ``solver_defaults`` fill solver keys the text does not give."""
+        ``solver_defaults`` fill solver keys the text does not give; a ``urdf:`` path is
+        relative to ``base_dir`` (default: the working directory)."""
         try:
             data = yaml.load(text, Loader=_SceneLoader)
         except yaml.YAMLError as exc:
@@ -251,7 +315,20 @@ class Scene(_Strict):
             raise SceneError(f'{source}: YAML nested too deeply to be a scene') from None
         if solver_defaults and isinstance(data, dict) and isinstance(data.get('solver', {}), dict):
             data['solver'] = dict(solver_defaults, **data.get('solver', {}))
+        if isinstance(data, dict) and 'urdf' in data:
+            return cls._from_urdf_entry(data, base_dir, source)
         return cls.from_dict(data, source=source)
+
+    @classmethod
+    def _from_urdf_entry(cls, data: dict, base_dir, source: str) -> 'Scene':
+        """A scene YAML naming ``urdf: path`` (relative to the YAML) with overrides."""
+        from affine_joint_sim.urdf import scene_from_urdf
+        overrides = dict(data)
+        path = overrides.pop('urdf')
+        if not isinstance(path, str) or not path:
+            raise SceneError(f'{source}: urdf: must be the path of a URDF file (got {path!r})')
+        path = Path(base_dir or '.') / path
+        return scene_from_urdf(cls, path, overrides, source=f'{source} (urdf: {path})')
 
     def to_yaml(self) -> str:
         """The scene as YAML text that ``from_yaml_text`` reads back to an equal scene."""
@@ -281,6 +358,12 @@ class Scene(_Strict):
                 problems.append((f'joints[{i}].child', 'parent and child must differ'))
             if joint.x0 is not None and math.dist(joint.x0, joint.x1) < 1e-9:
                 problems.append((f'joints[{i}].x1', 'x1 must differ from x0 (the axis is x1 - x0)'))
+        problems += _token_clashes([j.name for j in self.joints])
+        problems += _duplicates('frames', [f.name for f in self.frames])
+        for i, frame in enumerate(self.frames):
+            if frame.body not in body_names:
+                problems.append((f'frames[{i}].body', f'unknown body {frame.body!r}; valid: '
+                                 f'{valid}'))
         if not problems:
             problems += self._closed_loops()
         return problems
@@ -353,6 +436,18 @@ def _duplicates(section: str, names: list[str]) -> list[tuple[str, str]]:
     return problems
 
 
+def _token_clashes(names: list[str]) -> list[tuple[str, str]]:
+    """Joint names that would share a per-joint topic (``a-b`` and ``a_b``)."""
+    seen, problems = {}, []
+    for i, name in enumerate(names):
+        token = topic_token(name)
+        if token in seen and names[seen[token]] != name:
+            problems.append((f'joints[{i}].name', f'{name!r} and {names[seen[token]]!r} '
+                             f'(joints[{seen[token]}]) share the topic token {token!r}'))
+        seen.setdefault(token, i)
+    return problems
+
+
 def _key_path(loc) -> str:
     path = ''
     for part in loc:
@@ -372,7 +467,7 @@ def _message(err) -> str:
         return 'must be a finite number (NaN and Inf are not allowed)'
     msg = err['msg'].removeprefix('Value error, ')
     if err['type'] == 'string_pattern_mismatch':
-        msg = 'must match [A-Za-z_][A-Za-z0-9_]* (it becomes a ROS topic token)'
+        msg = 'must be a non-empty name without whitespace'
     return f'{msg} (got {err["input"]!r})' if 'input' in err and err['type'] != 'missing' \
         and not isinstance(err['input'], (dict, list)) else msg
 

@@ -20,6 +20,7 @@ from affine_joint_sim.physics.fields import (STAT_FLOAT_NAMES, STAT_INT_NAMES, a
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
 from affine_joint_sim.physics.model import (SimulationWarning, build_model,
                                             largest_step_efforts)
+from affine_joint_sim.poses import LinkFrames, rigid_transforms
 from affine_joint_sim.scene import Scene
 
 __all__ = ['Stepper', 'SimulationWarning']
@@ -49,7 +50,7 @@ class Stepper:
     """Affine-body simulation of one scene, in one or ``num_envs`` independent environments.
 
     Args:
-        scene: a ``Scene`` (or a path to a scene YAML file).
+        scene: a ``Scene`` (or the path of a scene YAML or URDF file).
         device: Warp device, ``"cpu"`` (default), ``"cuda"`` or ``"cuda:N"``.
         num_envs: number of environments; ``None`` for a single one without the env axis.
         on_problem: called with the message of each problem a step reports (once per kind
@@ -59,7 +60,7 @@ class Stepper:
     def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None,
                  on_problem=None):
         if not isinstance(scene, Scene):
-            scene = Scene.from_yaml(scene)
+            scene = Scene.load(scene)
         if num_envs is not None and (int(num_envs) != num_envs or num_envs < 1):
             raise ValueError(f'num_envs must be a positive integer or None, got {num_envs!r}')
         self.scene = scene
@@ -70,6 +71,7 @@ class Stepper:
         self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision))
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
+        self._links = LinkFrames(scene)
         self._allocate()
         self.reset()
         self._record()
@@ -197,12 +199,15 @@ class Stepper:
         for array, value in ((self._state.q, q0), (self._state.v, v0), (self._state.q_prev, q0),
                              (self._state.v_prev, v0)):
             array.assign(np.ascontiguousarray(value))
-        for array in (self._state.history_ready, self._state.joint_coordinate,
-                      self._state.joint_coordinate_prev, self._control.joint_target,
-                      self._control.joint_drive_enabled,
-                      self._state.joint_position, self._state.joint_velocity,
+        for array in (self._state.history_ready, self._control.joint_target,
+                      self._control.joint_drive_enabled, self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float):
             array.zero_()
+        x0 = np.ascontiguousarray(np.broadcast_to(h.joint_initial_position,
+                                                  (n, h.joint_count)))
+        for array in (self._state.joint_coordinate, self._state.joint_coordinate_prev,
+                      self._state.joint_position):
+            array.assign(x0)
         self._warned = set()
         for k, joint in enumerate(self.scene.joints):
             if joint.type != 'fixed':
@@ -265,6 +270,19 @@ class Stepper:
         t[..., :3, 3] = q[..., :3]
         t[..., 3, 3] = 1.0
         return t if self._batched else t[0]
+
+    @property
+    def link_names(self) -> list[str]:
+        """Names of the link frames: a URDF scene's links (welded ones included), else the
+        bodies."""
+        return self._links.names
+
+    @property
+    def link_transforms(self) -> np.ndarray:
+        """Rigid world transforms of the link frames, (..., n_links, 4, 4): each body's pose
+        with A replaced by its nearest rotation (polar decomposition), times the link's pose
+        in the body."""
+        return self._out(self._links.world(rigid_transforms(self._q)))
 
     @property
     def energy(self) -> np.ndarray | float:

@@ -49,7 +49,7 @@ class Reference(NamedTuple):
 
 
 def _packaged(name: str) -> Scene:
-    return Scene.from_yaml(scene_path(name))
+    return Scene.load(scene_path(name))
 
 
 def cases() -> list[Case]:

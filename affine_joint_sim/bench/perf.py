@@ -40,7 +40,7 @@ class Case:
 def _packaged(name):
     def load():
         from affine_joint_sim.scene import Scene
-        return Scene.from_yaml(scene_path(name))
+        return Scene.load(scene_path(name))
     return load
 
 

@@ -2,18 +2,21 @@
 
 Nothing here uses the stepper or its kernels: each body is rigid (inertia from the primitive's
 closed form, computed here), each joint is an exact hinge, each joint torque a couple about the
-hinge axis (child +, parent −). The equations of motion M(θ) θ̈ + h(θ, θ̇) = τ are assembled from
+hinge axis (child +, parent −), each joint's damping c a torque −c θ̇. The equations of motion
+M(θ) θ̈ + h(θ, θ̇) = τ − c θ̇ are assembled from
 body Jacobians: M = Σ m J_vᵀJ_v + J_ωᵀ I J_ω and h = Σ J_vᵀ m a⁰ + J_ωᵀ (I α⁰ + ω × Iω), where
 a⁰, α⁰ are the bodies' accelerations at θ̈ = 0 with the fixed bodies accelerating by −g (so h
 carries gravity). World frame, z up, SI units; θ_j is the right-hand rotation of joint j's child
-relative to its parent about x1 − x0, zero at t = 0, as the stepper reports it.
+relative to its parent about x1 − x0, equal to the joint's ``initial_position`` at t = 0 (as the
+stepper reports it; every θ argument below is such an angle). Joint limits are not modelled:
+cases stay inside them.
 """
 
 import math
 
 import numpy as np
 
-from affine_joint_sim.physics.mass import mass_properties
+from affine_joint_sim.physics.mass import body_mass_properties
 from affine_joint_sim.physics.model import rotation_matrix
 
 __all__ = ['RigidTree', 'rigid_inertia']
@@ -29,6 +32,16 @@ def rigid_inertia(shape, mass: float) -> np.ndarray:
         side = mass * (3.0 * r * r + h * h) / 12.0
         return np.diag([side, side, mass * r * r / 2.0])
     return np.eye(3) * 0.4 * mass * shape.sphere.radius ** 2
+
+
+def _body_inertia(body, mass: float) -> np.ndarray:
+    """A scene body's inertia tensor about its COM in body axes: its principal moments when
+    given (URDF links), the primitive's closed form otherwise, zero for a bare fixed body."""
+    if body.inertia is not None:
+        return np.diag(body.inertia)
+    if body.shape is None:
+        return np.zeros((3, 3))
+    return rigid_inertia(body.shape, mass)
 
 
 def _cross(a, b) -> np.ndarray:
@@ -55,10 +68,10 @@ class RigidTree:
         self.gravity = np.asarray(scene.gravity, dtype=float)
         bodies = scene.bodies
         self.fixed = np.array([b.fixed for b in bodies])
-        self.mass = np.array([mass_properties(b.shape, b.density, b.mass).mass for b in bodies])
+        self.mass = np.array([body_mass_properties(b).mass for b in bodies])
         self.rotation0 = np.array([rotation_matrix(b.orientation) for b in bodies])
         self.com0 = np.array([b.position for b in bodies], dtype=float)
-        self.inertia = np.array([rigid_inertia(b.shape, m) for b, m in zip(bodies, self.mass)])
+        self.inertia = np.array([_body_inertia(b, m) for b, m in zip(bodies, self.mass)])
         if any(np.any(b.linear_velocity) or np.any(b.angular_velocity) for b in bodies):
             raise ValueError('the rigid reference starts every body at rest')
         self.parent = np.array([scene.body_index(j.parent) for j in scene.joints])
@@ -66,6 +79,8 @@ class RigidTree:
         self.axis0 = np.array([np.subtract(j.x1, j.x0) / math.dist(j.x1, j.x0)
                                for j in scene.joints])
         self.point0 = np.array([j.x0 for j in scene.joints], dtype=float)
+        self.damping = np.array([j.damping for j in scene.joints], dtype=float)
+        self.offset = np.array([j.initial_position for j in scene.joints], dtype=float)
         self.order = self._joint_order()
         # ancestors[b, j]: joint j lies on the path from a fixed body to body b
         self.ancestors = np.zeros((len(bodies), len(scene.joints)), dtype=bool)
@@ -109,7 +124,7 @@ class RigidTree:
             p, c = self.parent[j], self.child[j]
             axes[j] = disp_rot[p] @ self.axis0[j]
             points[j] = disp_rot[p] @ self.point0[j] + disp_t[p]
-            turn = _rotation(self.axis0[j], theta[j])
+            turn = _rotation(self.axis0[j], theta[j] - self.offset[j])
             disp_rot[c] = disp_rot[p] @ turn
             disp_t[c] = disp_rot[p] @ (self.point0[j] - turn @ self.point0[j]) + disp_t[p]
             com[c] = disp_rot[c] @ self.com0[c] + disp_t[c]
@@ -141,7 +156,7 @@ class RigidTree:
         return self._mass_matrix(rot, com, axes, points)
 
     def acceleration(self, theta, omega, torque) -> np.ndarray:
-        """θ̈ [rad/s²] of M(θ) θ̈ + h(θ, θ̇) = τ."""
+        """θ̈ [rad/s²] of M(θ) θ̈ + h(θ, θ̇) = τ − c θ̇ (θ from the pose at t = 0)."""
         rot, com, axes, points, w, acc, alpha = self._forward(theta, omega)
         free = ~self.fixed
         jw, jv = self._jacobians(com, axes, points)
@@ -150,7 +165,8 @@ class RigidTree:
             w, np.einsum('bij,bj->bi', inertia, w))
         bias = np.einsum('bki,bk->i', jv[free], (self.mass[:, None] * acc)[free]) + np.einsum(
             'bki,bk->i', jw[free], spin[free])
-        return np.linalg.solve(self._mass_matrix(rot, com, axes, points), torque - bias)
+        return np.linalg.solve(self._mass_matrix(rot, com, axes, points),
+                               torque - self.damping * omega - bias)
 
     def energy(self, theta, omega) -> float:
         """Kinetic + gravity energy [J] of the free bodies."""
@@ -159,7 +175,8 @@ class RigidTree:
         return float(kinetic - np.sum((self.mass * (com @ self.gravity))[~self.fixed]))
 
     def simulate(self, torques, times, step: float = 1e-3):
-        """Joint angles [rad] and velocities [rad/s] at ``times`` [s] under constant torques.
+        """Joint angles [rad] (from the initial positions) and velocities [rad/s] at ``times``
+        [s] under constant torques.
 
         Args:
             torques: τ per joint [N·m], couples about each hinge.
@@ -172,7 +189,7 @@ class RigidTree:
         torques = np.asarray(torques, dtype=float)
         self._check_couples(torques)
         n = len(self.parent)
-        y = np.zeros(2 * n)
+        y = np.concatenate([self.offset, np.zeros(n)])
 
         def rate(state):
             return np.concatenate([state[n:], self.acceleration(state[:n], state[n:], torques)])

@@ -35,11 +35,11 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def wrap_angle(x: scalar):
-        """x wrapped once into (−π, π]."""
+        """x wrapped into (−π, π] (x is θ ∈ (−π, π] plus an initial position)."""
         out = x
-        if out > pi:
+        while out > pi:
             out -= two_pi
-        elif out <= -pi:
+        while out <= -pi:
             out += two_pi
         return out
 

@@ -87,6 +87,8 @@ FIELDS = _fields('model', [
     ('joint_limit_upper', 'scalar', J, 'rad | m', 'limit u on the coordinate'),
     ('joint_limit_strength', 'scalar', J, 'J·s²', 'limit s (0: no limit)'),
     ('joint_damping', 'scalar', J, 'N·m·s/rad | N·s/m', 'viscous damping c'),
+    ('joint_initial_position', 'scalar', J, 'rad | m', 'coordinate x₀ at t = 0 (its origin is '
+     'the URDF\'s)'),
     ('joint_drive_stiffness', 'scalar', J, 'kg', 'drive K = strength_ratio (m_P + m_C), 0: none'),
 ]) + _fields('state', [
     ('q', 'vec12', EB, 'm, -', 'ABD state [p, a1, a2, a3]'),

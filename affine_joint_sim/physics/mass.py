@@ -1,10 +1,15 @@
-"""Closed-form mass properties of primitives (physics_spec §1.5), COM-centred, body axes."""
+"""Mass properties of bodies, COM-centred, body axes: closed forms of primitives (physics_spec
+§1.5) and bodies given by mass and principal moments of inertia (URDF links, preface item 10)."""
 
 import math
 
 import numpy as np
 
-__all__ = ['MassProperties', 'mass_properties']
+__all__ = ['MassProperties', 'mass_properties', 'inertia_mass_properties',
+           'body_mass_properties', 'second_moments', 'MIN_SIDE_RATIO']
+
+# An equivalent box's sides are at least this fraction of its longest side (volume, extent).
+MIN_SIDE_RATIO = 1.0e-2
 
 
 class MassProperties:
@@ -50,3 +55,35 @@ def mass_properties(shape, density: float | None = None, mass: float | None = No
         half = np.full(3, r)
     m = mass if mass is not None else density * volume
     return MassProperties(m, volume, m * unit_moment, half)
+
+
+def second_moments(inertia) -> np.ndarray:
+    """Principal second moments s_i = ½ tr(I) − I_i [kg·m²] of principal moments of inertia
+    I_i (Σ = ½ tr(I)·1 − I, physics_spec preface item 10)."""
+    inertia = np.asarray(inertia, dtype=np.float64)
+    return 0.5 * inertia.sum() - inertia
+
+
+def inertia_mass_properties(mass: float, inertia) -> MassProperties:
+    """Mass properties of a body of ``mass`` [kg] with principal moments of inertia ``inertia``
+    [kg·m²] about its centre of mass (body axes = principal axes).
+
+    The body's volume v̄ (which scales the orthogonality energy κ v̄) and its extent (the
+    corners of the Newton convergence test) are those of the equivalent box: the uniform box
+    of the same mass and principal moments, sides a_i = √(12 s_i / m), each side raised to at
+    least ``MIN_SIDE_RATIO`` of the longest (a thin rod keeps a finite volume).
+    """
+    s = second_moments(inertia)
+    sides = np.sqrt(12.0 * np.maximum(s, 0.0) / mass)
+    sides = np.maximum(sides, MIN_SIDE_RATIO * sides.max())
+    return MassProperties(mass, float(np.prod(sides)), s, sides / 2.0)
+
+
+def body_mass_properties(body) -> MassProperties:
+    """Mass properties of a scene ``Body``: from its ``inertia`` and ``mass`` when given, else
+    from its shape; a fixed body with neither has only its mass (nothing else is used)."""
+    if body.inertia is not None:
+        return inertia_mass_properties(body.mass, body.inertia)
+    if body.shape is None:
+        return MassProperties(body.mass, 0.0, np.zeros(3), np.zeros(3))
+    return mass_properties(body.shape, body.density, body.mass)

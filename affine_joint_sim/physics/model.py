@@ -14,7 +14,7 @@ from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, FIXED, GENER
                                             JOINT_TYPES, LEVER_ARM, PRISMATIC, REVOLUTE,
                                             WRAPPED)
 from affine_joint_sim.physics.fields import fields_of
-from affine_joint_sim.physics.mass import mass_properties
+from affine_joint_sim.physics.mass import body_mass_properties
 
 __all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'direction_jacobian',
            'linear_pairs', 'rotation_matrix', 'largest_step_efforts']
@@ -94,7 +94,7 @@ def _joint_frame(axis) -> tuple[np.ndarray, np.ndarray]:
 def build_model(scene) -> HostModel:
     """Precompute the constant arrays of ``scene``; warn about torques that cannot act."""
     nb = len(scene.bodies)
-    props = [mass_properties(b.shape, b.density, b.mass) for b in scene.bodies]
+    props = [body_mass_properties(b) for b in scene.bodies]
     rotations = [rotation_matrix(b.orientation) for b in scene.bodies]
     q0, v0 = np.zeros((nb, 12)), np.zeros((nb, 12))
     for i, (body, rot) in enumerate(zip(scene.bodies, rotations)):
@@ -186,6 +186,7 @@ def _joint_arrays(scene, rotations, q0, mass) -> dict:
     out['joint_limit_upper'] = np.array([lim.upper if lim else 0.0 for lim in limits])
     out['joint_limit_strength'] = np.array([lim.strength if lim else 0.0 for lim in limits])
     out['joint_damping'] = np.array([j.damping for j in scene.joints])
+    out['joint_initial_position'] = np.array([j.initial_position for j in scene.joints])
     out['joint_drive_stiffness'] = np.array(
         [j.drive.strength_ratio * (mass[parent[k]] + mass[child[k]]) if j.drive else 0.0
          for k, j in enumerate(scene.joints)])

@@ -34,7 +34,7 @@ def _check_targets(scene: str, targets: dict[str, float]) -> None:
     from affine_joint_sim.resources import scene_path
     from affine_joint_sim.scene import Scene
 
-    loaded = Scene.from_yaml(scene_path(scene))
+    loaded = Scene.load(scene_path(scene))
     moving = [j.name for j in loaded.joints if j.type != 'fixed']
     wrong = [joint for joint in targets if joint not in moving]
     if wrong:

@@ -64,7 +64,7 @@ class SimNode(Node):
                          **node_kwargs)
         self.config = self._declare_parameters()
         try:
-            self.scene = Scene.from_yaml(scene_path(self.config['scene']))
+            self.scene = Scene.load(scene_path(self.config['scene']))
         except FileNotFoundError as exc:
             raise ConfigError(f"parameter 'scene': {exc}") from None
         try:
@@ -100,6 +100,9 @@ class SimNode(Node):
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
             self._publish_and_record(self.scene_pub, scene_msg, 0)
+            if self.description_pub is not None:
+                self._publish_and_record(self.description_pub, self.topics[
+                    'robot_description'].msg_class(data=self.scene.robot_description), 0)
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
                          'command_joints': self.commands.array_joints})
@@ -145,6 +148,12 @@ class SimNode(Node):
                                                t['scene'].qos)
         self.events_pub = self.create_publisher(t['events'].msg_class, t['events'].name(),
                                                 t['events'].qos)
+        # Latched: the URDF of a robot scene, for robot_state_publisher-style consumers.
+        self.description_pub = None
+        if self.scene.robot_description is not None:
+            self.description_pub = self.create_publisher(
+                t['robot_description'].msg_class, t['robot_description'].name(),
+                t['robot_description'].qos)
         for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
             for key in JOINT_COMMAND_KEYS.get(kind, ()):
                 self._subscribe(key, joint)
@@ -205,9 +214,11 @@ class SimNode(Node):
         if not self.config['record']:
             return None
         t = self.topics
+        keys = ['joint_states', 'clock', 'scene', 'events']
+        keys += ['robot_description'] if self.description_pub is not None else []
         topics = self._command_topics + [
             BagTopic(self.resolve_topic_name(t[key].name()), t[key].type, t[key].qos)
-            for key in ('joint_states', 'clock', 'scene', 'events')]
+            for key in keys]
         try:
             return BagRecorder(self.config['record'], self.config['storage'], topics)
         except (FileExistsError, OSError) as exc:

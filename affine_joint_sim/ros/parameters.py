@@ -40,7 +40,7 @@ class ParameterSpec:
 
 
 PARAMETERS = {
-    'scene': ParameterSpec('pendulum', 'scene YAML file, or a packaged scene name'),
+    'scene': ParameterSpec('pendulum', 'scene YAML or robot URDF file, or a packaged scene name'),
     'device': ParameterSpec('cpu', 'Warp device: cpu, cuda, cuda:N'),
     'mode': ParameterSpec('realtime', 'realtime: paced by the wall clock x real_time_factor; '
                           'fast: as fast as possible; lockstep: after publishing a step, wait '

@@ -31,7 +31,7 @@ from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.topics import COMMAND_KEYS, load_topics, message_class
-from affine_joint_sim.scene import Scene, SceneError
+from affine_joint_sim.scene import Scene, SceneError, topic_token
 
 __all__ = ['ReplayError', 'Divergence', 'read_bag', 'replay', 'publish']
 
@@ -51,12 +51,14 @@ class Divergence:
         max_angle: max |Δθ| per joint [rad] (wrapped joints compare modulo 2π).
         max_velocity: max |Δω| per joint [rad/s].
         states: number of recorded states compared.
+        dropped: recorded commands the command buffer refused (as the node did).
     """
 
     joint_names: list[str]
     max_angle: np.ndarray
     max_velocity: np.ndarray
     states: int = 0
+    dropped: list[str] = field(default_factory=list)
 
     def worst(self) -> float:
         return float(max(self.max_angle.max(initial=0.0), self.max_velocity.max(initial=0.0)))
@@ -66,6 +68,9 @@ class Divergence:
         lines = [f'{"joint":<{width}}  {"max |Δθ| [rad]":>15}  {"max |Δω| [rad/s]":>17}']
         lines += [f'{n:<{width}}  {a:15.3e}  {w:17.3e}'
                   for n, a, w in zip(self.joint_names, self.max_angle, self.max_velocity)]
+        if self.dropped:
+            lines.append(f'{len(self.dropped)} recorded commands refused (as the node did), '
+                         f'first: {self.dropped[0]}')
         return '\n'.join(lines)
 
 
@@ -150,7 +155,7 @@ def read_bag(path) -> RecordedBag:
 def _scene_of(bag: RecordedBag, scene_path) -> Scene:
     if scene_path is not None:
         try:
-            return Scene.from_yaml(packaged_scene_path(scene_path))
+            return Scene.load(packaged_scene_path(scene_path))
         except FileNotFoundError as exc:
             raise ReplayError(f'--scene: {exc}') from None
     if bag.scene_yaml is None:
@@ -180,6 +185,9 @@ class _Resimulation:
         self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'))
         self.wrapped = self.states.wrapped
         self.buffer = CommandBuffer.for_stepper(self.sim)
+        # per-joint topics carry the joint's topic token, the buffer takes its name
+        self.joint_of_token = {topic_token(name): name for name in self.sim.joint_names}
+        self.dropped: list[str] = []
         # the node's own loop; its pacer and lockstep gate stay idle: replay runs flat out
         self.loop = SimLoop(self.sim, self.buffer, Pacer(), LockstepGate())
         self.on_state = on_state
@@ -210,7 +218,8 @@ class _Resimulation:
         due = [m for m in self.pending if m.t_ns <= now + _EPS_NS]
         self.pending = [m for m in self.pending if m.t_ns > now + _EPS_NS]
         for m in due:
-            self.buffer.take(m.kind, m.joint, m.decode())
+            joint = None if m.joint is None else self.joint_of_token.get(m.joint, m.joint)
+            self.dropped += self.buffer.take(m.kind, joint, m.decode())
         self.loop.step()
         self.previous, self.current = self.current, self._sample()
 
@@ -282,6 +291,7 @@ def _replay_messages(bag, run, writer, divergence, scene):
             divergence.max_angle = np.maximum(divergence.max_angle, d_angle)
             divergence.max_velocity = np.maximum(divergence.max_velocity, d_velocity)
             divergence.states += 1
+    divergence.dropped = run.dropped
     if not started:
         raise ReplayError(f'{bag.path}: no start event on ~/events, so not a bag of the '
                           'affine_joint_sim node (its bag time must be sim time)')

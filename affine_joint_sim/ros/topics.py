@@ -12,13 +12,14 @@ import yaml
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from affine_joint_sim.resources import config_dir
+from affine_joint_sim.scene import topic_token
 
 __all__ = ['Topic', 'TOPIC_KEYS', 'COMMAND_KEYS', 'ANSWER_KEYS', 'JOINT_COMMAND_KEYS',
            'load_topics', 'message_class']
 
 TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
               'joint_commands', 'effort_commands', 'position_commands', 'joint_states', 'clock',
-              'scene', 'events')
+              'scene', 'robot_description', 'events')
 # Commands that answer a lockstep state (several joints at once).
 ANSWER_KEYS = ('joint_commands', 'effort_commands', 'position_commands')
 COMMAND_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
@@ -40,7 +41,7 @@ class Topic:
     Attributes:
         key: the entry's key (``joint_torque``, ``joint_states``, ...).
         template: topic name, relative to the node namespace unless absolute; ``{joint}``
-            stands for a joint name.
+            stands for a joint name (as ``scene.topic_token`` makes it a valid token).
         type: message type, ``package/msg/Name``.
         qos: the QoS profile publishers and subscribers of this topic use.
     """
@@ -52,7 +53,9 @@ class Topic:
 
     def name(self, joint: str | None = None) -> str:
         """The topic name, with ``{joint}`` replaced for per-joint topics."""
-        return self.template.format(joint=joint) if joint is not None else self.template
+        if joint is None:
+            return self.template
+        return self.template.format(joint=topic_token(joint))
 
     @property
     def msg_class(self):

@@ -95,7 +95,8 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def joint_raw_coordinate(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int):
-        """Coordinate of joint k as the state shows it: θ(q) ∈ (−π, π] [rad], d(q) [m]."""
+        """Coordinate of joint k as the state shows it, from its initial position x₀: x₀ + θ(q)
+        with θ ∈ (−π, π] [rad], x₀ + d(q) [m] (θ and d are 0 at t = 0)."""
         qp = q[env, model.joint_parent[k]]
         qc = q[env, model.joint_child[k]]
         kind = model.joint_type[k]
@@ -104,7 +105,7 @@ def build(t) -> SimpleNamespace:
             out = rev_angle(model, qp, qc, k)
         elif kind == PRISMATIC:
             out = pri_distance(model, qp, qc, k)
-        return out
+        return out + model.joint_initial_position[k]
 
     @wp.func
     def joint_coordinate_step(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int,

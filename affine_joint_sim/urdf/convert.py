@@ -1,0 +1,390 @@
+"""A URDF robot as a scene (design.md §10): bodies, joints and link frames.
+
+What becomes what:
+- Links welded by ``fixed`` joints are one body (mass, COM and inertia combined by the
+  parallel-axis rule); a link without mass is always welded to its parent this way (it carries
+  frames only). With ``merge_fixed: false`` massive links stay bodies joined by fixed joints
+  (UID 25).
+- Every body's rest frame is its principal frame at its COM (``urdf.inertia``). The root body
+  is fixed to the world at the root link's frame (``fixed_base: true``) or free.
+- ``revolute`` → UID 18 with its ``<limit lower upper>`` as a limit (UID 670) and
+  ``<limit effort>`` as effort_limit; ``continuous`` → UID 18 without limit; ``prismatic`` →
+  UID 20 with its limit (UID 669); ``<dynamics damping>`` → damping. Angles are multi-turn
+  (``angle_mode: continuous``), torques pure couples (``torque_model: generalized``).
+  ``floating`` → the child is a free body; ``planar`` → error; ``mimic`` and friction are not
+  modelled (a warning each).
+- ``initial_positions`` place the bodies by forward kinematics; every joint reports its URDF
+  coordinate (``initial_position``). The joint's axis points x0, x1 lie ``ANCHOR_HALF_LENGTH``
+  either side of the joint origin along its axis.
+"""
+
+import math
+import warnings
+
+from typing import Annotated
+
+import numpy as np
+from pydantic import Field, ValidationError
+
+from affine_joint_sim.physics.model import SimulationWarning
+from affine_joint_sim.scene import (Number, SceneError, Solver, Vec3, _format_errors, _key_path,
+                                    _message, _Strict)
+from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
+                                           principal_frame)
+from affine_joint_sim.urdf.packages import resolve_uri
+from affine_joint_sim.urdf.read import read_urdf
+
+__all__ = ['scene_from_urdf', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']
+
+# Half the distance between a joint's two axis points x0, x1 [m]: the hinge's stiffness against
+# bending grows with its square (0.1 m halves the gap of the arm6 falling onto its limits).
+ANCHOR_HALF_LENGTH = 0.1
+# URDF joint types with a coordinate
+_MOVING = ('revolute', 'continuous', 'prismatic')
+
+
+class UrdfOptions(_Strict):
+    """The overrides of a URDF scene (a scene YAML's keys beside ``urdf:``)."""
+
+    name: str | None = None
+    dt: Annotated[Number, Field(ge=1.0e-6)] = 0.01
+    gravity: Vec3 = (0.0, 0.0, -9.81)
+    solver: Solver = Solver()
+    fixed_base: bool = True
+    merge_fixed: bool = True
+    initial_positions: dict[str, Number] = {}
+    package_paths: dict[str, str] = {}
+    joints: dict[str, dict] = {}
+
+
+def scene_from_urdf(scene_cls, path, overrides: dict, source: str):
+    """Build the Scene of the URDF at ``path``; SceneError naming ``source`` on bad input,
+    a SimulationWarning for each URDF feature simulated differently from what it says."""
+    try:
+        options = UrdfOptions.model_validate(overrides)
+    except ValidationError as exc:
+        raise SceneError(_format_errors(source, [
+            (_key_path(err['loc']), _message(err)) for err in exc.errors()])) from None
+    text, robot = read_urdf(path)
+    data = _Converter(robot, options, path).scene_dict()
+    scene = scene_cls.from_dict(data, source=source)
+    scene._robot_description = text
+    return scene
+
+
+def _warn(message: str) -> None:
+    warnings.warn(message, SimulationWarning, stacklevel=4)
+
+
+class _Converter:
+    """One URDF robot turned into a scene dict (one use)."""
+
+    def __init__(self, robot, options: UrdfOptions, path):
+        self.robot, self.options, self.path = robot, options, path
+        self.links = {link.name: link for link in robot.links}
+        self._check_names()
+        self.joint_of = {joint.child: joint for joint in robot.joints}   # child link → joint
+        self.root = self._root()
+        self.order = self._tree_order()
+        self.poses = self._forward_kinematics()
+
+    def _fail(self, message: str):
+        raise SceneError(f'{self.path}: {message}')
+
+    def _check_names(self) -> None:
+        for kind, items in (('link', self.robot.links), ('joint', self.robot.joints)):
+            seen = set()
+            for item in items:
+                if item.name in seen:
+                    self._fail(f'duplicate {kind} name {item.name!r}')
+                if not item.name.strip() or any(c.isspace() for c in item.name):
+                    self._fail(f'{kind} name {item.name!r} contains whitespace')
+                seen.add(item.name)
+        for joint in self.robot.joints:
+            for side in ('parent', 'child'):
+                if getattr(joint, side) not in self.links:
+                    self._fail(f'joint {joint.name!r}: its {side} link '
+                               f'{getattr(joint, side)!r} is not defined')
+        for joint in self.robot.joints:
+            norm = np.linalg.norm(_raw_axis(joint))
+            if joint.type in _MOVING and not (np.isfinite(norm) and norm > 1e-9):
+                self._fail(f'joint {joint.name!r}: <axis xyz> must be a non-zero vector (got '
+                           f'{list(_raw_axis(joint))})')
+        children = {}
+        for joint in self.robot.joints:
+            if joint.child in children:
+                self._fail(f'link {joint.child!r} is the child of joints '
+                           f'{children[joint.child]!r} and {joint.name!r}: a closed kinematic '
+                           'loop (only trees of joints are supported)')
+            children[joint.child] = joint.name
+
+    def _root(self) -> str:
+        roots = [name for name in self.links if name not in self.joint_of]
+        if len(roots) != 1:
+            if not roots:
+                self._fail('no root link (every link is a child): the joints form a closed '
+                           'loop')
+            self._fail(f'{len(roots)} root links ({", ".join(roots)}): a URDF robot is one '
+                       'tree of links')
+        return roots[0]
+
+    def _tree_order(self) -> list[str]:
+        """Links parents first (breadth first from the root); a link left out is on a loop."""
+        below = {}
+        for joint in self.robot.joints:
+            below.setdefault(joint.parent, []).append(joint.child)
+        order, frontier = [], [self.root]
+        while frontier:
+            order += frontier
+            frontier = [c for link in frontier for c in below.get(link, [])]
+        if len(order) != len(self.links):
+            loop = sorted(set(self.links) - set(order))
+            self._fail(f'links {", ".join(loop)} are not connected to the root '
+                       f'{self.root!r}: their joints form a closed loop')
+        return order
+
+    def _joint_position(self, joint) -> float:
+        value = self.options.initial_positions.get(joint.name, 0.0)
+        return float(value)
+
+    def _forward_kinematics(self) -> dict:
+        """World pose (4×4) of every link at the initial joint positions; root at the origin."""
+        movable = [j.name for j in self.robot.joints if j.type in _MOVING]
+        unknown = sorted(set(self.options.initial_positions) - set(movable))
+        if unknown:
+            self._fail(f'initial_positions: {", ".join(map(repr, unknown))} is not a revolute, '
+                       f'continuous or prismatic joint (valid: {", ".join(movable)})')
+        poses = {self.root: np.eye(4)}
+        for link in self.order[1:]:
+            joint = self.joint_of[link]
+            poses[link] = poses[joint.parent] @ _origin(joint) @ _motion(
+                joint, self._joint_position(joint))
+        return poses
+
+    # ---- bodies --------------------------------------------------------------------------
+
+    def _welded(self, joint) -> bool:
+        """A fixed joint whose child becomes part of its parent's body."""
+        if joint.type != 'fixed':
+            return False
+        if self.options.merge_fixed:
+            return True
+        return self._own_inertia(joint.child).mass <= 0.0
+
+    def _own_inertia(self, link: str) -> LinkInertia:
+        return LinkInertia.of_link(self.links[link].inertial, self.poses[link])
+
+    def _groups(self) -> dict:
+        """Body name (its top link) → the links welded into it, parents first."""
+        body_of, groups = {}, {}
+        for link in self.order:
+            joint = self.joint_of.get(link)
+            top = body_of[joint.parent] if joint is not None and self._welded(joint) else link
+            body_of[link] = top
+            groups.setdefault(top, []).append(link)
+        self.body_of = body_of
+        return groups
+
+    def _body(self, name: str, links: list[str], fixed: bool, total_moving_mass: float) -> dict:
+        inertia = combine([self._own_inertia(link) for link in links])
+        pose = np.eye(4)
+        if fixed:
+            pose = self.poses[name]
+            mass = inertia.mass if inertia.mass > 0.0 else total_moving_mass
+            body = {'name': name, 'mass': max(mass, 1e-9), 'fixed': True}
+        else:
+            if inertia.mass <= 0.0:
+                why = ('is the root of a free-base robot' if name == self.root else
+                       f'moves (joint {self.joint_of[name].name!r})')
+                self._fail(f'link {name!r} {why} but has no mass: give it an <inertial> with '
+                           'mass > 0 (links welded to it by fixed joints count)')
+            moments, axes = principal_frame(inertia.inertia)
+            try:
+                moments, change = physical_moments(inertia.mass, moments)
+            except ValueError as exc:
+                self._fail(f'link {name!r}: {exc}')
+            if change:
+                _warn(f'{self.path}: link {name!r}: {change}')
+            pose[:3, :3], pose[:3, 3] = axes, inertia.com
+            body = {'name': name, 'mass': inertia.mass, 'inertia': [float(m) for m in moments],
+                    'position': _list(inertia.com),
+                    'orientation': {'quat_xyzw': _quaternion(axes)}}
+        frames = []
+        for link in links:
+            local = np.linalg.inv(pose) @ self.poses[link]
+            frames.append({'name': link, 'body': name, 'position': _list(local[:3, 3]),
+                           'orientation': {'quat_xyzw': _quaternion(local[:3, :3])}})
+        return body, frames
+
+    # ---- joints --------------------------------------------------------------------------
+
+    def _joint(self, joint) -> dict | None:
+        """The scene joint of a URDF joint between two bodies (None: the child is free)."""
+        kind = joint.type
+        if kind == 'planar':
+            self._fail(f'joint {joint.name!r}: planar joints are not supported (no affine '
+                       'joint constitution models them); make it a fixed joint or a chain of '
+                       'prismatic and revolute joints')
+        if kind == 'floating':
+            _warn(f'{self.path}: joint {joint.name!r} is floating: link {joint.child!r} moves '
+                  'freely (no joint)')
+            return None
+        self._say_unmodelled(joint)
+        out = {'name': joint.name, 'type': 'revolute' if kind == 'continuous' else kind,
+               'parent': self.body_of[joint.parent], 'child': self.body_of[joint.child]}
+        if kind == 'fixed':
+            return out
+        frame = self.poses[joint.parent] @ _origin(joint)
+        axis = frame[:3, :3] @ _axis(joint)
+        out['x0'] = _list(frame[:3, 3] - ANCHOR_HALF_LENGTH * axis)
+        out['x1'] = _list(frame[:3, 3] + ANCHOR_HALF_LENGTH * axis)
+        out['initial_position'] = self._joint_position(joint)
+        if kind != 'prismatic':
+            out['torque_model'] = 'generalized'
+            out['angle_mode'] = 'continuous'
+        limit = joint.limit
+        if kind != 'continuous':
+            out['limit'] = self._limit(joint)
+        if limit is not None and limit.effort is not None:
+            if limit.effort > 0.0:
+                out['effort_limit'] = float(limit.effort)
+            else:
+                _warn(f'{self.path}: joint {joint.name!r}: <limit effort="{limit.effort:g}"> '
+                      'read as no effort limit (an effort limit of 0 would leave the joint '
+                      'unactuated)')
+        damping = self._dynamics(joint, 'damping')
+        if damping:
+            out['damping'] = damping
+        return out
+
+    def _dynamics(self, joint, key: str) -> float:
+        """A ``<dynamics>`` attribute [N·m·s/rad | N·s/m or N·m | N], 0 when absent."""
+        value = getattr(joint.dynamics, key, None) if joint.dynamics is not None else None
+        if value is None:
+            return 0.0
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not (math.isfinite(number) and number >= 0.0):
+            self._fail(f'joint {joint.name!r}: <dynamics {key}="{value}"> must be a number '
+                       '>= 0')
+        return number
+
+    def _limit(self, joint) -> dict:
+        limit = joint.limit
+        lower = None if limit is None else limit.lower
+        upper = None if limit is None else limit.upper
+        if lower is None or upper is None:
+            _warn(f'{self.path}: joint {joint.name!r} ({joint.type}) has no <limit lower upper>: '
+                  'the URDF spec makes a missing bound 0, so it '
+                  + ('cannot move' if not (lower or upper) else 'moves on one side of 0 only')
+                  + '; give lower and upper, or make it continuous')
+        lower, upper = float(lower or 0.0), float(upper or 0.0)
+        if lower > upper:
+            self._fail(f'joint {joint.name!r}: <limit lower="{lower:g}"> is above '
+                       f'upper="{upper:g}"')
+        start = self._joint_position(joint)
+        if not lower <= start <= upper:
+            _warn(f'{self.path}: joint {joint.name!r} starts at {start:g}, outside its limits '
+                  f'[{lower:g}, {upper:g}]: the limit pushes it back')
+        return {'lower': lower, 'upper': upper}
+
+    def _say_unmodelled(self, joint) -> None:
+        if joint.mimic is not None:
+            _warn(f'{self.path}: joint {joint.name!r} mimics {joint.mimic.joint!r}: mimic is not '
+                  'modelled, the joint moves on its own (command it like the other)')
+        friction = self._dynamics(joint, 'friction')
+        if friction:
+            _warn(f'{self.path}: joint {joint.name!r}: <dynamics friction="{friction:g}"> is '
+                  'not modelled (no Coulomb friction); its damping is')
+
+    # ---- the scene -----------------------------------------------------------------------
+
+    def _check_meshes(self) -> None:
+        """Meshes are never loaded for physics; one that cannot be found is said (viewers
+        draw its bounding box instead)."""
+        for link in self.robot.links:
+            for visual in link.visuals:
+                mesh = visual.geometry.mesh if visual.geometry is not None else None
+                if mesh is not None and resolve_uri(
+                        mesh.filename, self.options.package_paths, self.path.parent) is None:
+                    _warn(f'{self.path}: link {link.name!r}: mesh {mesh.filename!r} not found '
+                          '(package_paths, ROS_PACKAGE_PATH, AMENT_PREFIX_PATH searched); its '
+                          'visual is drawn as a box')
+
+    def scene_dict(self) -> dict:
+        groups = self._groups()
+        moving_mass = sum(self._own_inertia(link).mass for link in self.order
+                          if self.body_of[link] != self.root or not self.options.fixed_base)
+        bodies, frames = [], []
+        for name, links in groups.items():
+            fixed = name == self.root and self.options.fixed_base
+            body, body_frames = self._body(name, links, fixed, moving_mass)
+            bodies.append(body)
+            frames += body_frames
+        joints = [self._joint(j) for j in self.robot.joints if not self._welded(j)]
+        joints = self._overridden([j for j in joints if j is not None])
+        self._check_meshes()
+        options = self.options
+        return {'name': options.name or self.robot.name or self.path.stem, 'dt': options.dt,
+                'gravity': list(options.gravity), 'solver': options.solver.model_dump(),
+                'bodies': bodies, 'joints': joints, 'frames': frames}
+
+    def _overridden(self, joints: list[dict]) -> list[dict]:
+        """Apply the ``joints: {name: {key: value}}`` overrides."""
+        by_name = {j['name']: j for j in joints}
+        for name, keys in self.options.joints.items():
+            if name not in by_name:
+                self._fail(f'joints: {name!r} is not a joint of the robot (valid: '
+                           f'{", ".join(by_name)})')
+            by_name[name].update(keys)
+        return joints
+
+
+def _origin(joint) -> np.ndarray:
+    return np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=np.float64)
+
+
+def _raw_axis(joint) -> np.ndarray:
+    """The joint's ``<axis xyz>`` as given (URDF's default: x)."""
+    return np.array([1.0, 0.0, 0.0]) if joint.axis is None else np.asarray(joint.axis, float)
+
+
+def _axis(joint) -> np.ndarray:
+    """The joint's unit axis in its joint frame (checked non-zero by the converter)."""
+    axis = _raw_axis(joint)
+    return axis / np.linalg.norm(axis)
+
+
+def _motion(joint, position: float) -> np.ndarray:
+    """The child's pose in the joint frame at coordinate ``position`` [rad | m]."""
+    out = np.eye(4)
+    if joint.type in ('revolute', 'continuous'):
+        a = _axis(joint)
+        k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+        out[:3, :3] = np.eye(3) + math.sin(position) * k + (1.0 - math.cos(position)) * k @ k
+    elif joint.type == 'prismatic':
+        out[:3, 3] = position * _axis(joint)
+    return out
+
+
+def _quaternion(rot: np.ndarray) -> list[float]:
+    """Unit quaternion [x, y, z, w] of a rotation matrix (Shepperd's method)."""
+    m = rot
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    if trace > 0.0:
+        s = 2.0 * math.sqrt(1.0 + trace)
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4]
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(max(1.0 + m[i, i] - m[j, j] - m[k, k], 0.0))
+        q = [0.0, 0.0, 0.0, (m[k, j] - m[j, k]) / s]
+        q[i], q[j], q[k] = s / 4, (m[j, i] + m[i, j]) / s, (m[k, i] + m[i, k]) / s
+    norm = math.sqrt(sum(c * c for c in q))
+    return [c / norm for c in q]
+
+
+def _list(v) -> list[float]:
+    return [float(x) for x in v]
