@@ -40,6 +40,7 @@ setup(
         'test': ['pytest'],
         'bench': ['matplotlib'],    # plots of `make bench`
         'compare': ['mujoco'],      # MuJoCo as a reference in `make bench` (optional)
+        'reference': ['pin>=3,<5'],   # Pinocchio checks the URDF robots' reference (optional)
     },
     entry_points={
         'console_scripts': ['affine-joint-sim = affine_joint_sim.cli:main'],

@@ -527,3 +527,23 @@ def test_names_outside_the_topic_alphabet_are_kept_and_clashes_refused(tmp_path)
                   + inertial() + '</link>')
     with pytest.raises(SceneError, match="share the topic token 'a_b'"):
         load(tmp_path, clash)
+
+
+# ---- the rigid reference of a converted URDF against Pinocchio's reading of the URDF ------
+
+@pytest.mark.parametrize('urdf, start', [
+    (ROBOTS / 'arm6.urdf', {'shoulder_lift': 0.3, 'elbow': 0.6, 'wrist_1': -0.4}),
+    (DATA / 'arm3.urdf', {'pan': 0.2, 'lift': 0.5, 'elbow': 0.7}),
+])
+def test_rigid_reference_of_our_scene_equals_pinocchio_on_the_urdf(urdf, start):
+    """Pinocchio (optional extra ``reference``) reads the URDF itself: our conversion (inertia
+    rotation, welding, forward kinematics) and the reference built on it must agree with it."""
+    pytest.importorskip('pinocchio')
+    from affine_joint_sim.bench.pinocchio_ref import PinocchioArm
+
+    scene = Scene.from_urdf(urdf, initial_positions=start)
+    torques = np.linspace(0.5, -0.2, len(scene.joints))
+    times = 0.1 * np.arange(1, 5)
+    ours, _ = RigidTree(scene).simulate(torques, times, step=1e-3)
+    np.testing.assert_allclose(ours, PinocchioArm(urdf, scene).simulate(torques, times),
+                               atol=1e-8)

@@ -5,17 +5,21 @@ the scene's ``dt`` and ``solver`` settings. The truth is the scene as a rigid mu
 (``references.RigidTree``) integrated by RK4, sampled every ``SAMPLE_EVERY`` seconds (for the
 wheel it reproduces the closed form θ = τt²/(2I), for the 3-D arm it is the only independent
 truth at hand). Where the system is a chain of boxes on hinges about world x, ``mujoco`` holds
-the same system for MuJoCo (``bench.mujoco_ref``).
+the same system for MuJoCo (``bench.mujoco_ref``). For a URDF robot the reference is built from
+our scene of it; with Pinocchio installed (extra ``reference``), Pinocchio's own reading of the
+URDF checks it (``bench.pinocchio_ref``), and their difference joins the error estimate.
 """
 
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from affine_joint_sim.bench import pinocchio_ref
 from affine_joint_sim.bench.mujoco_ref import MujocoChain
 from affine_joint_sim.bench.references import RigidTree
 from affine_joint_sim.chain import chain_scene
-from affine_joint_sim.resources import scene_path
+from affine_joint_sim.resources import config_dir, scene_path
 from affine_joint_sim.scene import Scene
 
 __all__ = ['Case', 'Reference', 'SAMPLE_EVERY', 'cases', 'reference', 'with_settings']
@@ -30,6 +34,7 @@ class Case(NamedTuple):
     torques: dict            # joint name -> constant torque [N·m]
     duration: float          # simulated time [s]
     mujoco: MujocoChain | None = None
+    urdf: Path | None = None  # the robot's URDF, for Pinocchio
 
     @property
     def times(self) -> np.ndarray:
@@ -63,6 +68,9 @@ def cases() -> list[Case]:
              MujocoChain(8, 0.5, 0.05, 1.0, angle=0.5)),
         Case('wheel', _packaged('wheel'), {'spin': 1.0}, 1.0),
         Case('arm', _packaged('arm'), {'yaw': 0.3, 'shoulder': 1.0, 'elbow': -0.5}, 0.5),
+        # falling from its bent start (inside every limit for 0.4 s) while panning
+        Case('arm6', _packaged('arm6'), {'shoulder_pan': 0.5}, 0.4,
+             urdf=config_dir() / 'robots' / 'arm6.urdf'),
     ]
 
 
@@ -83,5 +91,11 @@ def reference(case: Case) -> Reference:
     coarse, _ = tree.simulate(torque, case.times, step=REFERENCE_STEP)
     angles, velocities = tree.simulate(torque, case.times, step=REFERENCE_STEP / 2)
     kinetic = [tree.energy(a, w) - tree.energy(a, 0 * w) for a, w in zip(angles, velocities)]
-    return Reference(f'rigid-body ODE, RK4 at {REFERENCE_STEP / 2:g} s', angles,
-                     float(np.abs(angles - coarse).max()), max(kinetic))
+    label = f'rigid-body ODE, RK4 at {REFERENCE_STEP / 2:g} s'
+    estimate = np.abs(angles - coarse).max()
+    if case.urdf is not None and pinocchio_ref.available():
+        other = pinocchio_ref.PinocchioArm(case.urdf, case.scene).simulate(torque, case.times)
+        gap = np.abs(angles - other).max()
+        label += f'; Pinocchio on the URDF agrees to {gap:.1e} rad'
+        estimate = max(estimate, gap)
+    return Reference(label, angles, float(estimate), max(kinetic))

@@ -1,7 +1,7 @@
 """``bench sweep``: the speed/accuracy trade of every knob, measured against independent truth.
 
-For each case of ``bench.cases`` (the packaged scenes under constant torques and a falling
-chain) every combination of dt, integrator, newton_tol, precision and device is simulated,
+For each case of ``bench.cases`` (the packaged scenes under constant torques, a falling chain
+and the URDF arm) every combination of dt, integrator, newton_tol, precision and device is simulated,
 timed and compared with the case's rigid-body reference (``bench.measure``). With MuJoCo
 installed (extra ``compare``) its Euler and RK4 run the chain cases at the same dts in the same
 run. Writes ``sweep.csv`` (every run), ``sweep.md`` (per case: the cheapest setting reaching
@@ -154,4 +154,4 @@ def add_parser(sections) -> None:
         quick_help='a smoke run: pendulum and wheel, 3 dts, 2 tolerances, float64')
     parser.add_argument('--case', dest='cases', action='append', default=None,
                         help='only this case (repeatable): pendulum, double_pendulum, '
-                             'chain8, wheel, arm')
+                             'chain8, wheel, arm, arm6 (the URDF arm)')
