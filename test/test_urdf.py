@@ -110,9 +110,13 @@ def test_rest_frame_is_the_principal_frame_and_equivalent_box_has_the_moments(tm
     a = model.body_q0[k, 3:].reshape(3, 3)
     np.testing.assert_allclose(a @ a.T, np.eye(3), atol=1e-12)
     assert np.linalg.det(a) == pytest.approx(1.0)
-    # the uniform box of half sides h: S = m h² / 3 per axis
-    np.testing.assert_allclose(2.0 * model.body_half_extent[k] ** 2 / 3.0,
-                               model.body_second_moment[k], rtol=1e-12)
+    # the uniform box of half sides h has S = m h² / 3 per axis; its volume is then scaled
+    # evenly into the density range (this link's box would weigh 66 kg/m³)
+    ratio = 2.0 * model.body_half_extent[k] ** 2 / 3.0 / model.body_second_moment[k]
+    np.testing.assert_allclose(ratio, ratio[0], rtol=1e-12)
+    volume = np.prod(2.0 * model.body_half_extent[k])
+    assert model.body_ortho_coeff[k] == pytest.approx(1e8 * volume, rel=1e-12)
+    assert 2.0 / volume == pytest.approx(100.0, rel=1e-12)
 
 
 def test_welded_links_keep_total_mass_com_and_inertia(tmp_path):
@@ -447,6 +451,19 @@ def test_a_revolute_joint_without_bounds_says_what_the_spec_does(tmp_path, limit
      "joint 'j': <axis xyz> must be a non-zero vector"),
     ('<link name="base"/><joint name="j" type="fixed"><parent link="base"/></joint>',
      "<joint> 'j' needs <child"),
+    ('<link name="base"/>' + joint('j', 'continuous', 'base', 'arm', 'nan 0 0') + ARM,
+     "joint 'j': <origin> has a non-finite number"),
+    ('<link name="base"/>' + joint('j', 'continuous', 'base', 'arm')
+     + '<link name="arm">' + inertial(mass='inf') + '</link>',
+     "link 'arm': its inertial <mass> has a non-finite number"),
+    ('<link name="base"/>' + joint('j', 'continuous', 'base', 'arm')
+     + '<link name="arm">' + inertial(mass=-1) + '</link>', "link 'arm': negative mass"),
+    ('<link name="base"/>' + joint('j', 'revolute', 'base', 'arm',
+                                   extra='<limit lower="-inf" upper="1"/>') + ARM,
+     "joint 'j': <limit lower=\"-inf\" upper=\"1.0\"> must be finite"),
+    ('<link name="base"/>' + joint('j', 'continuous', 'base', 'arm', '$(arg x) 0 0') + ARM,
+     'is an unexpanded xacro or launch substitution'),
+    ('', 'the robot has no <link>'),
 ])
 def test_structural_traps_are_errors_naming_the_culprit(tmp_path, body, words):
     message = error_of(tmp_path, robot(body))
@@ -483,6 +500,39 @@ def test_unmodelled_joint_features_are_warnings(tmp_path, extra, words):
     assert any("joint 'twin'" in m and words in m for m in said), said
 
 
+def test_geometry_the_simulator_does_not_use_cannot_stop_a_robot(tmp_path):
+    """pybullet's and Drake's <capsule>, an empty <geometry> or a mesh without a file: the
+    visual is dropped with a note; collisions are never read."""
+    scene, said = warnings_of(tmp_path, robot(
+        '<link name="base"><visual><geometry><capsule radius="0.1" length="0.3"/></geometry>'
+        '</visual><collision><geometry><capsule radius="1" length="2"/></geometry></collision>'
+        '</link>' + joint('hinge', 'continuous', 'base', 'arm')
+        + '<link name="arm">' + inertial() + '<visual><geometry/></visual><visual><geometry>'
+        '<mesh/></geometry></visual></link>'))
+    assert [b.name for b in scene.bodies] == ['base', 'arm']
+    assert len(said) == 3, said
+    assert "link 'base': a visual (line 3) with <capsule> geometry is not drawn" in said[0]
+    assert 'with 0 shapes in its <geometry>' in said[1] and '<mesh> without a filename' in said[2]
+
+
+def test_an_undefined_world_parent_is_the_world_and_infinite_bounds_no_limit(tmp_path):
+    scene, said = warnings_of(tmp_path, robot(
+        joint('weld', 'fixed', 'world', 'base') + '<link name="base">' + inertial(5.0)
+        + '</link>' + joint('hinge', 'revolute', 'base', 'arm',
+                            extra='<limit lower="-inf" upper="inf" effort="3"/>') + ARM))
+    assert len(said) == 1 and "link 'world' is not defined but a joint's parent: taken as the " \
+        'world' in said[0], said
+    assert scene.bodies[0].fixed and scene.joints[0].limit is None
+    assert scene.joints[0].effort_limit == 3.0
+
+
+def test_a_mimic_of_a_missing_joint_is_said(tmp_path):
+    scene, said = warnings_of(tmp_path, robot(
+        '<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm',
+                                      extra='<mimic joint="ghost"/>') + ARM))
+    assert any("mimics 'ghost' (no joint of that name exists)" in m for m in said), said
+
+
 def test_a_floating_joint_leaves_its_child_free(tmp_path):
     scene, said = warnings_of(tmp_path, robot(
         '<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm') + ARM
@@ -497,7 +547,8 @@ def test_free_base_needs_a_massive_root_and_fixed_base_does_not(tmp_path):
     text = robot('<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm') + ARM)
     assert load(tmp_path, text).bodies[0].fixed
     message = error_of(tmp_path, text, fixed_base=False)
-    assert "link 'base' is the root of a free-base robot but has no mass" in message
+    assert "link 'base' is the root of a free-base robot (fixed_base: false) but has no " \
+        'mass' in message
     free = load(tmp_path, robot('<link name="base">' + inertial(3.0) + '</link>'
                                 + joint('hinge', 'continuous', 'base', 'arm') + ARM),
                 fixed_base=False)

@@ -6,10 +6,13 @@ import math
 import numpy as np
 
 __all__ = ['MassProperties', 'mass_properties', 'inertia_mass_properties',
-           'body_mass_properties', 'second_moments', 'MIN_SIDE_RATIO']
+           'body_mass_properties', 'second_moments', 'MIN_SIDE_RATIO', 'DENSITY_RANGE']
 
-# An equivalent box's sides are at least this fraction of its longest side (volume, extent).
+# An equivalent box's sides are at least this fraction of its longest side (volume, extent) ...
 MIN_SIDE_RATIO = 1.0e-2
+# ... and its density m / v̄ lies in this range [kg/m³] (foam to beyond tungsten): a link whose
+# URDF inertia is (nearly) zero, or a featherweight one, keeps a sensible rigidity κ v̄.
+DENSITY_RANGE = (100.0, 20000.0)
 
 
 class MassProperties:
@@ -71,12 +74,19 @@ def inertia_mass_properties(mass: float, inertia) -> MassProperties:
     The body's volume v̄ (which scales the orthogonality energy κ v̄) and its extent (the
     corners of the Newton convergence test) are those of the equivalent box: the uniform box
     of the same mass and principal moments, sides a_i = √(12 s_i / m), each side raised to at
-    least ``MIN_SIDE_RATIO`` of the longest (a thin rod keeps a finite volume).
+    least ``MIN_SIDE_RATIO`` of the longest (a thin rod keeps a finite volume), then the box
+    scaled evenly so that its density m / v̄ lies in ``DENSITY_RANGE``.
     """
     s = second_moments(inertia)
     sides = np.sqrt(12.0 * np.maximum(s, 0.0) / mass)
     sides = np.maximum(sides, MIN_SIDE_RATIO * sides.max())
-    return MassProperties(mass, float(np.prod(sides)), s, sides / 2.0)
+    volume = float(np.prod(sides))
+    light, dense = DENSITY_RANGE
+    target = min(max(volume, mass / dense), mass / light)
+    if target != volume:
+        sides = sides * (target / volume) ** (1.0 / 3.0) if volume > 0.0 else np.full(
+            3, target ** (1.0 / 3.0))
+    return MassProperties(mass, target, s, sides / 2.0)
 
 
 def body_mass_properties(body) -> MassProperties:

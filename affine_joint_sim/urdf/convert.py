@@ -65,7 +65,9 @@ def scene_from_urdf(scene_cls, path, overrides: dict, source: str):
     except ValidationError as exc:
         raise SceneError(_format_errors(source, [
             (_key_path(err['loc']), _message(err)) for err in exc.errors()])) from None
-    text, robot = read_urdf(path)
+    text, robot, notes = read_urdf(path)
+    for note in notes:
+        _warn(note)
     data = _Converter(robot, options, path).scene_dict()
     scene = scene_cls.from_dict(data, source=source)
     scene._robot_description = text
@@ -81,8 +83,10 @@ class _Converter:
 
     def __init__(self, robot, options: UrdfOptions, path):
         self.robot, self.options, self.path = robot, options, path
+        self._implicit_world()
         self.links = {link.name: link for link in robot.links}
         self._check_names()
+        self._check_numbers()
         self.joint_of = {joint.child: joint for joint in robot.joints}   # child link → joint
         self.root = self._root()
         self.order = self._tree_order()
@@ -90,6 +94,34 @@ class _Converter:
 
     def _fail(self, message: str):
         raise SceneError(f'{self.path}: {message}')
+
+    def _implicit_world(self) -> None:
+        """A joint whose parent is an undefined ``world`` link means the world (Drake's and
+        Gazebo's convention): the link is added, and said."""
+        names = {link.name for link in self.robot.links}
+        if 'world' not in names and any(j.parent == 'world' for j in self.robot.joints):
+            import yourdfpy
+            self.robot.links.append(yourdfpy.Link(name='world'))
+            _warn(f"{self.path}: link 'world' is not defined but a joint's parent: taken as "
+                  'the world (a massless root link)')
+
+    def _check_numbers(self) -> None:
+        """Every pose, axis, mass and inertia is finite; masses are not negative."""
+        for joint in self.robot.joints:
+            for what, value in (('<origin>', joint.origin), ('<axis>', joint.axis)):
+                if value is not None and not np.all(np.isfinite(np.asarray(value, float))):
+                    self._fail(f'joint {joint.name!r}: {what} has a non-finite number')
+        for link in self.robot.links:
+            inertial = link.inertial
+            if inertial is None:
+                continue
+            for what, value in (('<origin>', inertial.origin), ('<mass>', inertial.mass),
+                                ('<inertia>', inertial.inertia)):
+                if value is not None and not np.all(np.isfinite(np.asarray(value, float))):
+                    self._fail(f'link {link.name!r}: its inertial {what} has a non-finite '
+                               'number')
+            if inertial.mass is not None and inertial.mass < 0.0:
+                self._fail(f'link {link.name!r}: negative mass ({inertial.mass:g} kg)')
 
     def _check_names(self) -> None:
         for kind, items in (('link', self.robot.links), ('joint', self.robot.joints)):
@@ -194,10 +226,14 @@ class _Converter:
             body = {'name': name, 'mass': max(mass, 1e-9), 'fixed': True}
         else:
             if inertia.mass <= 0.0:
-                why = ('is the root of a free-base robot' if name == self.root else
-                       f'moves (joint {self.joint_of[name].name!r})')
-                self._fail(f'link {name!r} {why} but has no mass: give it an <inertial> with '
-                           'mass > 0 (links welded to it by fixed joints count)')
+                if name == self.root:
+                    self._fail(f'link {name!r} is the root of a free-base robot (fixed_base: '
+                               'false) but has no mass: give it an <inertial> with mass > 0, '
+                               'or keep fixed_base: true (a floating joint below it frees its '
+                               'child already)')
+                self._fail(f'link {name!r} moves (joint {self.joint_of[name].name!r}) but has '
+                           'no mass: give it an <inertial> with mass > 0 (links welded to it '
+                           'by fixed joints count)')
             moments, axes = principal_frame(inertia.inertia)
             try:
                 moments, change = physical_moments(inertia.mass, moments)
@@ -245,7 +281,7 @@ class _Converter:
         limit = joint.limit
         if kind != 'continuous':
             out['limit'] = self._limit(joint)
-        if limit is not None and limit.effort is not None:
+        if limit is not None and limit.effort is not None and math.isfinite(limit.effort):
             if limit.effort > 0.0:
                 out['effort_limit'] = float(limit.effort)
             else:
@@ -271,15 +307,22 @@ class _Converter:
                        '>= 0')
         return number
 
-    def _limit(self, joint) -> dict:
+    def _limit(self, joint) -> dict | None:
         limit = joint.limit
         lower = None if limit is None else limit.lower
         upper = None if limit is None else limit.upper
+        if lower is not None and upper is not None and math.isinf(lower) and lower < 0.0 \
+                and math.isinf(upper) and upper > 0.0:
+            return None                                  # explicitly unlimited
+        if any(v is not None and not math.isfinite(v) for v in (lower, upper)):
+            self._fail(f'joint {joint.name!r}: <limit lower="{lower}" upper="{upper}"> must be '
+                       'finite, or -inf and inf together for no limit')
         if lower is None or upper is None:
             _warn(f'{self.path}: joint {joint.name!r} ({joint.type}) has no <limit lower upper>: '
                   'the URDF spec makes a missing bound 0, so it '
                   + ('cannot move' if not (lower or upper) else 'moves on one side of 0 only')
-                  + '; give lower and upper, or make it continuous')
+                  + '; give lower and upper, make it continuous, or override the limit '
+                  f'away (joints: {{{joint.name}: {{limit: null}}}})')
         lower, upper = float(lower or 0.0), float(upper or 0.0)
         if lower > upper:
             self._fail(f'joint {joint.name!r}: <limit lower="{lower:g}"> is above '
@@ -292,8 +335,11 @@ class _Converter:
 
     def _say_unmodelled(self, joint) -> None:
         if joint.mimic is not None:
-            _warn(f'{self.path}: joint {joint.name!r} mimics {joint.mimic.joint!r}: mimic is not '
-                  'modelled, the joint moves on its own (command it like the other)')
+            missing = ('' if any(j.name == joint.mimic.joint for j in self.robot.joints) else
+                       ' (no joint of that name exists)')
+            _warn(f'{self.path}: joint {joint.name!r} mimics {joint.mimic.joint!r}{missing}: '
+                  'mimic is not modelled, the joint moves on its own (command it like the '
+                  'other)')
         friction = self._dynamics(joint, 'friction')
         if friction:
             _warn(f'{self.path}: joint {joint.name!r}: <dynamics friction="{friction:g}"> is '

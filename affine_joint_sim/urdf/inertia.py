@@ -79,7 +79,8 @@ def physical_moments(mass: float, moments: np.ndarray) -> tuple[np.ndarray, str 
         return moments, None
     fixed_s = np.maximum(s, floor)
     fixed = fixed_s.sum() - fixed_s
-    what = ('violates the triangle inequality (I_i > I_j + I_k)' if s.min() < 0.0 else
+    roundoff = 1e-9 * max(moments.max(), mass * MIN_RADIUS ** 2)
+    what = ('violates the triangle inequality (I_i > I_j + I_k)' if s.min() < -roundoff else
             'is (nearly) degenerate: a rotation without inertia')
     return fixed, (f'inertia {_fmt(moments)} {what}; using {_fmt(fixed)} kg·m² (second moments '
                    f'raised to at least {floor:.3g} kg·m²)')

@@ -1,7 +1,10 @@
 """Reading a URDF file: XML checks with line numbers, then yourdfpy's parse (no meshes).
 
-yourdfpy parses the elements but reports a missing attribute as a bare ``KeyError``; the
-checks here come first so that a user reads which element on which line is wrong.
+yourdfpy parses the elements but reports a missing attribute as a bare ``KeyError`` and
+refuses a file for geometry it does not know (``<capsule>``); the checks here come first so
+that a user reads which element on which line is wrong, and the geometry the simulator never
+uses cannot stop a robot from loading: ``<collision>`` elements are dropped, and a visual whose
+geometry yourdfpy cannot read is dropped with a note.
 """
 
 import io
@@ -16,10 +19,12 @@ __all__ = ['read_urdf', 'JOINT_TYPES']
 # URDF's joint types (urdfdom); the converter says what it does with each
 JOINT_TYPES = ('revolute', 'continuous', 'prismatic', 'fixed', 'floating', 'planar')
 _XACRO = 'http://www.ros.org/wiki/xacro'
+_GEOMETRIES = ('box', 'cylinder', 'sphere', 'mesh')      # what yourdfpy reads
 
 
 def read_urdf(path):
-    """The URDF text and its yourdfpy ``Robot``; SceneError naming the file (and line)."""
+    """The URDF text, its yourdfpy ``Robot`` and notes about visuals that were dropped;
+    SceneError naming the file (and line)."""
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -30,11 +35,37 @@ def read_urdf(path):
     except etree.XMLSyntaxError as exc:
         raise SceneError(f'{path}: not valid XML: {exc.msg}') from None
     _check_elements(path, root)
+    encoding = root.getroottree().docinfo.encoding or 'utf-8'
     try:
-        text = data.decode('utf-8')
-    except UnicodeDecodeError as exc:
-        raise SceneError(f'{path}: not UTF-8 text (byte {exc.start})') from None
-    return text, _parse(path, data)
+        text = data.decode(encoding)
+    except (UnicodeDecodeError, LookupError) as exc:
+        raise SceneError(f'{path}: not {encoding} text as it declares ({exc})') from None
+    notes = _drop_unused_geometry(root)
+    return text, _parse(path, etree.tostring(root)), [f'{path}: {note}' for note in notes]
+
+
+def _drop_unused_geometry(root) -> list[str]:
+    """Remove ``<collision>`` elements and visuals yourdfpy cannot read; notes on the latter."""
+    notes = []
+    for link in root.iterchildren('link'):
+        for collision in link.findall('collision'):
+            link.remove(collision)
+        for visual in link.findall('visual'):
+            geometry = visual.find('geometry')
+            shapes = [] if geometry is None else [
+                el for el in geometry if isinstance(el.tag, str)]
+            problem = None
+            if len(shapes) != 1:
+                problem = f'{len(shapes)} shapes in its <geometry>, expected one'
+            elif shapes[0].tag not in _GEOMETRIES:
+                problem = f'<{shapes[0].tag}> geometry'
+            elif shapes[0].tag == 'mesh' and not shapes[0].get('filename'):
+                problem = '<mesh> without a filename'
+            if problem:
+                link.remove(visual)
+                notes.append(f'link {link.get("name")!r}: a visual (line {visual.sourceline}) '
+                             f'with {problem} is not drawn')
+    return notes
 
 
 def _check_elements(path, root) -> None:
@@ -43,6 +74,14 @@ def _check_elements(path, root) -> None:
     if root.tag != 'robot':
         raise SceneError(f'{path}: not a URDF: the root element is <{root.tag}>, expected '
                          '<robot>')
+    if root.find('link') is None:
+        raise SceneError(f'{path}: the robot has no <link>')
+    for element in root.iter():
+        for key, value in element.attrib.items():
+            if '$(' in value or '${' in value:
+                raise SceneError(f'{path}:{element.sourceline}: <{element.tag} {key}="{value}">'
+                                 ' is an unexpanded xacro or launch substitution: expand the '
+                                 f'file first (xacro {path.name} > robot.urdf)')
     if any(isinstance(el.tag, str) and el.tag.startswith('{' + _XACRO) for el in root.iter()):
         raise SceneError(f'{path}: contains xacro macros: expand it first '
                          f'(xacro {path.name} > robot.urdf)')
