@@ -37,7 +37,7 @@ setup(
         'yourdfpy>=0.0.56,<0.1',    # URDF robots (design.md §10); never loads meshes here
     ],
     extras_require={
-        'test': ['pytest'],
+        'test': ['pytest', 'mcap', 'mcap-ros2-support'],   # bags as Foxglove reads them
         'bench': ['matplotlib'],    # plots of `make bench`
         'compare': ['mujoco'],      # MuJoCo as a reference in `make bench` (optional)
         'reference': ['pin>=3,<5'],   # Pinocchio checks the URDF robots' reference (optional)

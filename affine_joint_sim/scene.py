@@ -15,7 +15,7 @@ from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr
                       ValidationError, model_validator)
 
 __all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Limit', 'Drive', 'Shape', 'Solver',
-           'Orientation', 'Frame', 'topic_token']
+           'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh', 'topic_token']
 
 # Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
 # names use topic_token(name).
@@ -152,6 +152,55 @@ class Frame(_Strict):
     orientation: Orientation | None = None
 
 
+class Mesh(_Strict):
+    """A mesh file drawn by viewers (never used by the physics): ``uri`` as the URDF gives it
+    (``package://``, ``file://`` or a path), ``path`` the file found for it on this machine
+    (None: not found, drawn as ``fallback``, a box [m]), ``scale`` per axis."""
+
+    uri: str
+    path: str | None = None
+    scale: Vec3 = (1.0, 1.0, 1.0)
+    fallback: tuple[PositiveFloat, PositiveFloat, PositiveFloat] = (0.05, 0.05, 0.05)
+
+
+class Geometry(_Strict):
+    """What a visual draws: exactly one of ``box``, ``cylinder``, ``sphere`` (as a Shape) or
+    ``mesh``."""
+
+    box: tuple[PositiveFloat, PositiveFloat, PositiveFloat] | None = None
+    cylinder: Cylinder | None = None
+    sphere: Sphere | None = None
+    mesh: Mesh | None = None
+
+    @model_validator(mode='after')
+    def _exactly_one(self):
+        given = [k for k in _GEOMETRY_KINDS if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError(f'give exactly one of {", ".join(_GEOMETRY_KINDS)} (got '
+                             f'{given or "none"})')
+        return self
+
+    @property
+    def kind(self) -> str:
+        """'box', 'cylinder', 'sphere' or 'mesh'."""
+        return next(k for k in _GEOMETRY_KINDS if getattr(self, k) is not None)
+
+
+_GEOMETRY_KINDS = ('box', 'cylinder', 'sphere', 'mesh')
+
+
+class Visual(_Strict):
+    """A shape viewers draw on a body (a URDF ``<visual>``): its pose in the body's frame
+    (``position`` [m], ``orientation``), its geometry and its RGBA colour (0–1; None: the
+    palette's colour of the body)."""
+
+    body: str
+    geometry: Geometry
+    position: Vec3 = (0.0, 0.0, 0.0)
+    orientation: Orientation | None = None
+    color: tuple[Number, Number, Number, Number] | None = None
+
+
 class Limit(_Strict):
     """Joint limit (UID 670 revolute [rad], UID 669 prismatic [m]) on the reported coordinate:
     a cubic penalty inside the implicit step, s((x−u)/(u−l))³ above u, s((l−x)/(u−l))³ below l
@@ -251,6 +300,8 @@ class Scene(_Strict):
     bodies: Annotated[list[Body], Field(min_length=1)]
     joints: list[Joint] = []
     frames: list[Frame] = []
+    # what viewers draw; empty: every body's shape (a URDF scene lists its links' visuals)
+    visuals: list[Visual] = []
     _robot_description: str | None = PrivateAttr(default=None)
 
     @property
@@ -360,10 +411,11 @@ class Scene(_Strict):
                 problems.append((f'joints[{i}].x1', 'x1 must differ from x0 (the axis is x1 - x0)'))
         problems += _token_clashes([j.name for j in self.joints])
         problems += _duplicates('frames', [f.name for f in self.frames])
-        for i, frame in enumerate(self.frames):
-            if frame.body not in body_names:
-                problems.append((f'frames[{i}].body', f'unknown body {frame.body!r}; valid: '
-                                 f'{valid}'))
+        for section, items in (('frames', self.frames), ('visuals', self.visuals)):
+            for i, item in enumerate(items):
+                if item.body not in body_names:
+                    problems.append((f'{section}[{i}].body', f'unknown body {item.body!r}; '
+                                     f'valid: {valid}'))
         if not problems:
             problems += self._closed_loops()
         return problems

@@ -17,7 +17,8 @@ import warp as wp
 from affine_joint_sim.physics.energy import mechanical_energy
 from affine_joint_sim.physics.fields import (STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
                                              device_model)
-from affine_joint_sim.physics.kernels import scalar_of, step_kernels
+from affine_joint_sim.physics.frames import POSE_COLUMNS
+from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
 from affine_joint_sim.physics.model import (SimulationWarning, build_model,
                                             largest_step_efforts)
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
@@ -283,6 +284,39 @@ class Stepper:
         with A replaced by its nearest rotation (polar decomposition), times the link's pose
         in the body."""
         return self._out(self._links.world(rigid_transforms(self._q)))
+
+    def pose_reader(self, body, local, env: int = 0):
+        """A function that returns, each time it is called, the rigid world poses of frames on
+        the bodies of environment ``env``: frame i on body ``body[i]`` at pose ``local[i]``
+        (4×4) in that body's frame. It returns a (n, 8) float64 array (valid until the next
+        call): position [m], quaternion (x, y, z, w), w ≥ 0, of R·local with R the rotation
+        nearest to the body's A, and the body's strain ‖AAᵀ − I‖_F (physics.frames). One
+        replay of a captured launch, no Python per frame."""
+        k = step_kernels(scalar_of(self.scene.solver.precision))
+        local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
+        dtype = k.numpy_scalar
+        inputs = [wp.array(np.asarray(body, dtype=np.int32), dtype=int, device=self.device),
+                  wp.array(local[:, :3, :3].astype(dtype), dtype=k.mat33, device=self.device),
+                  wp.array(local[:, :3, 3].astype(dtype), dtype=k.vec3, device=self.device)]
+        out = wp.zeros((len(local), POSE_COLUMNS), dtype=wp.float64, device=self.device)
+        host = out if self.device.is_cpu else wp.empty_like(out, device='cpu', pinned=True)
+        kernel = frame_kernel(scalar_of(self.scene.solver.precision))
+        wp.load_module(kernel.module, device=self.device)
+        with wp.ScopedCapture(device=self.device) as capture:
+            wp.launch(kernel, dim=len(local), inputs=[self._state.q, int(env), *inputs, out],
+                      device=self.device)
+            if host is not out:
+                wp.copy(host, out)
+        graph, view = capture.graph, host.numpy()
+
+        def read() -> np.ndarray:
+            wp.capture_launch(graph)
+            if not self.device.is_cpu:
+                wp.synchronize_device(self.device)
+            return view
+
+        read.keep = (inputs, out, host)      # the graph refers to these arrays
+        return read
 
     @property
     def energy(self) -> np.ndarray | float:

@@ -11,17 +11,19 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics import (affine, assemble, commands, commit, joint_terms, joints,
-                                      newton, ortho, potential, prediction, step, tree_solve)
+from affine_joint_sim.physics import (affine, assemble, commands, commit, frames, joint_terms,
+                                      joints, newton, ortho, potential, prediction, step,
+                                      tree_solve)
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.precision import types_for
 
-__all__ = ['step_kernels', 'scalar_of']
+__all__ = ['step_kernels', 'scalar_of', 'frame_kernel']
 
 _STAGES = (affine, ortho, tree_solve, joints, joint_terms, commands, potential, assemble,
            prediction, newton,
            commit, step)
 _BUILT = {}
+_FRAMES = {}
 
 
 def step_kernels(scalar) -> SimpleNamespace:
@@ -38,3 +40,10 @@ def step_kernels(scalar) -> SimpleNamespace:
 def scalar_of(precision: str):
     """The Warp scalar type of a scene's solver.precision."""
     return wp.float64 if precision == 'float64' else wp.float32
+
+
+def frame_kernel(scalar):
+    """The frame-pose kernel of ``physics.frames`` for ``scalar`` (built on first use)."""
+    if scalar not in _FRAMES:
+        _FRAMES[scalar] = frames.build(step_kernels(scalar)).frame_poses
+    return _FRAMES[scalar]

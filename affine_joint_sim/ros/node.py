@@ -36,8 +36,10 @@ from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.recording import RunRecording
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
 from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, load_topics
+from affine_joint_sim.ros.viz import VizPublisher
 from affine_joint_sim.scene import Scene
 from affine_joint_sim.stepper import SimulationWarning, Stepper
+from affine_joint_sim.viz.description import robot_description
 
 __all__ = ['SimNode']
 
@@ -100,9 +102,8 @@ class SimNode(Node):
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
             self._publish_and_record(self.scene_pub, scene_msg, 0)
-            if self.description_pub is not None:
-                self._publish_and_record(self.description_pub, self.topics[
-                    'robot_description'].msg_class(data=self.scene.robot_description), 0)
+            self._publish_and_record(self.description_pub, self.topics[
+                'robot_description'].msg_class(data=robot_description(self.scene)), 0)
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
                          'command_joints': self.commands.array_joints})
@@ -148,12 +149,12 @@ class SimNode(Node):
                                                t['scene'].qos)
         self.events_pub = self.create_publisher(t['events'].msg_class, t['events'].name(),
                                                 t['events'].qos)
-        # Latched: the URDF of a robot scene, for robot_state_publisher-style consumers.
-        self.description_pub = None
-        if self.scene.robot_description is not None:
-            self.description_pub = self.create_publisher(
-                t['robot_description'].msg_class, t['robot_description'].name(),
-                t['robot_description'].qos)
+        # Latched: the scene as a URDF (its own, or generated), for URDF viewers.
+        self.description_pub = self.create_publisher(
+            t['robot_description'].msg_class, t['robot_description'].name(),
+            t['robot_description'].qos)
+        self.viz = VizPublisher(self, self.sim, t, self.config['viz_rate'],
+                                self.config['frame_id'], self._publish_and_record)
         for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
             for key in JOINT_COMMAND_KEYS.get(kind, ()):
                 self._subscribe(key, joint)
@@ -214,8 +215,8 @@ class SimNode(Node):
         if not self.config['record']:
             return None
         t = self.topics
-        keys = ['joint_states', 'clock', 'scene', 'events']
-        keys += ['robot_description'] if self.description_pub is not None else []
+        keys = ['joint_states', 'clock', 'scene', 'robot_description', 'events',
+                *self.viz.publishers]
         topics = self._command_topics + [
             BagTopic(self.resolve_topic_name(t[key].name()), t[key].type, t[key].qos)
             for key in keys]
@@ -225,9 +226,11 @@ class SimNode(Node):
             raise ConfigError(f"parameter 'record': {exc}") from None
 
     def _publish_and_record(self, publisher, msg, t_ns):
-        """Record first: the bag keeps every computed step even if a shutdown stops the publish."""
+        """Record first: the bag keeps every computed step even if a shutdown stops the publish.
+        ``msg`` is a message or its serialized bytes."""
         if self.recording.active:
-            self.recording.write(publisher.topic_name, t_ns, serialize_message(msg))
+            raw = msg if isinstance(msg, bytes) else serialize_message(msg)
+            self.recording.write(publisher.topic_name, t_ns, raw)
         publisher.publish(msg)
 
     def _event(self, event: dict):
@@ -347,6 +350,7 @@ class SimNode(Node):
         self.recording.record_taken(self.loop.bag_ns)   # taken before the reset: recorded
         self.loop.reset()
         self._event({'event': 'reset'})
+        self.viz.reset(self.loop.bag_ns)
         self._started = (time.monotonic(), 0)
         self._last_step_wall = self._started[0]
         self.publish_state()
@@ -379,6 +383,7 @@ class SimNode(Node):
             clock = self._clock_msg.clock
             clock.sec, clock.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
             self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
+        self.viz.publish(self.loop.sim_time_ns, t_ns)
         self.recording.flush_if_due()
 
     def _wait_before_step(self) -> float:
@@ -503,4 +508,5 @@ class SimNode(Node):
                 'taken': self.taken,
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
                 'bag': self.config['record'] or None,
+                'strain': self.viz.messages.strain if self.viz.publishers else None,
                 'recording_stopped': self.recording.stopped}

@@ -57,6 +57,9 @@ PARAMETERS = {
                                        'serialized]; larger ones are dropped undecoded',
                                        minimum=64, live=True),
     'publish_clock': ParameterSpec(True, 'publish /clock every step', live=True),
+    'viz_rate': ParameterSpec(30.0, 'markers and body_poses per simulated second [Hz] (0: '
+                              'none)', minimum=0.0),
+    'frame_id': ParameterSpec('world', 'frame of markers and body_poses'),
     'record': ParameterSpec('', 'bag directory to record into (empty: no recording)'),
     'storage': ParameterSpec('mcap', 'bag storage', choices=STORAGES),
     'command_timeout': ParameterSpec(0.0, 'simulated seconds [s] after which a silent joint\'s '

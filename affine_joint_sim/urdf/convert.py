@@ -13,6 +13,7 @@ What becomes what:
   (``angle_mode: continuous``), torques pure couples (``torque_model: generalized``).
   ``floating`` → the child is a free body; ``planar`` → error; ``mimic`` and friction are not
   modelled (a warning each).
+- Visuals (``urdf.visuals``) keep their pose on the body, geometry, colour and mesh URIs.
 - ``initial_positions`` place the bodies by forward kinematics; every joint reports its URDF
   coordinate (``initial_position``). The joint's axis points x0, x1 lie ``ANCHOR_HALF_LENGTH``
   either side of the joint origin along its axis.
@@ -31,8 +32,9 @@ from affine_joint_sim.scene import (Number, SceneError, Solver, Vec3, _format_er
                                     _message, _Strict)
 from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
                                            principal_frame)
-from affine_joint_sim.urdf.packages import resolve_uri
+from affine_joint_sim.physics.mass import inertia_mass_properties
 from affine_joint_sim.urdf.read import read_urdf
+from affine_joint_sim.urdf.visuals import link_visuals, quaternion
 
 __all__ = ['scene_from_urdf', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']
 
@@ -91,6 +93,7 @@ class _Converter:
         self.root = self._root()
         self.order = self._tree_order()
         self.poses = self._forward_kinematics()
+        self.local = {}         # link -> its pose in its body's frame, filled with the bodies
 
     def _fail(self, message: str):
         raise SceneError(f'{self.path}: {message}')
@@ -244,12 +247,13 @@ class _Converter:
             pose[:3, :3], pose[:3, 3] = axes, inertia.com
             body = {'name': name, 'mass': inertia.mass, 'inertia': [float(m) for m in moments],
                     'position': _list(inertia.com),
-                    'orientation': {'quat_xyzw': _quaternion(axes)}}
+                    'orientation': {'quat_xyzw': quaternion(axes)}}
         frames = []
         for link in links:
             local = np.linalg.inv(pose) @ self.poses[link]
+            self.local[link] = local
             frames.append({'name': link, 'body': name, 'position': _list(local[:3, 3]),
-                           'orientation': {'quat_xyzw': _quaternion(local[:3, :3])}})
+                           'orientation': {'quat_xyzw': quaternion(local[:3, :3])}})
         return body, frames
 
     # ---- joints --------------------------------------------------------------------------
@@ -347,18 +351,6 @@ class _Converter:
 
     # ---- the scene -----------------------------------------------------------------------
 
-    def _check_meshes(self) -> None:
-        """Meshes are never loaded for physics; one that cannot be found is said (viewers
-        draw its bounding box instead)."""
-        for link in self.robot.links:
-            for visual in link.visuals:
-                mesh = visual.geometry.mesh if visual.geometry is not None else None
-                if mesh is not None and resolve_uri(
-                        mesh.filename, self.options.package_paths, self.path.parent) is None:
-                    _warn(f'{self.path}: link {link.name!r}: mesh {mesh.filename!r} not found '
-                          '(package_paths, ROS_PACKAGE_PATH, AMENT_PREFIX_PATH searched); its '
-                          'visual is drawn as a box')
-
     def scene_dict(self) -> dict:
         groups = self._groups()
         moving_mass = sum(self._own_inertia(link).mass for link in self.order
@@ -371,11 +363,13 @@ class _Converter:
             frames += body_frames
         joints = [self._joint(j) for j in self.robot.joints if not self._welded(j)]
         joints = self._overridden([j for j in joints if j is not None])
-        self._check_meshes()
         options = self.options
+        visuals = link_visuals(self.robot, self.local, self.body_of, options.package_paths,
+                               self.path.parent, {b['name']: _size(b) for b in bodies},
+                               lambda message: _warn(f'{self.path}: {message}'))
         return {'name': options.name or self.robot.name or self.path.stem, 'dt': options.dt,
                 'gravity': list(options.gravity), 'solver': options.solver.model_dump(),
-                'bodies': bodies, 'joints': joints, 'frames': frames}
+                'bodies': bodies, 'joints': joints, 'frames': frames, 'visuals': visuals}
 
     def _overridden(self, joints: list[dict]) -> list[dict]:
         """Apply the ``joints: {name: {key: value}}`` overrides."""
@@ -415,21 +409,13 @@ def _motion(joint, position: float) -> np.ndarray:
     return out
 
 
-def _quaternion(rot: np.ndarray) -> list[float]:
-    """Unit quaternion [x, y, z, w] of a rotation matrix (Shepperd's method)."""
-    m = rot
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    if trace > 0.0:
-        s = 2.0 * math.sqrt(1.0 + trace)
-        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4]
-    else:
-        i = int(np.argmax(np.diag(m)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * math.sqrt(max(1.0 + m[i, i] - m[j, j] - m[k, k], 0.0))
-        q = [0.0, 0.0, 0.0, (m[k, j] - m[j, k]) / s]
-        q[i], q[j], q[k] = s / 4, (m[j, i] + m[i, j]) / s, (m[k, i] + m[i, k]) / s
-    norm = math.sqrt(sum(c * c for c in q))
-    return [c / norm for c in q]
+def _size(body: dict) -> list[float]:
+    """Sides [m] of the box drawn for a body's mesh that is not found: its equivalent box (a
+    fixed body without inertia: 5 cm)."""
+    if 'inertia' not in body:
+        return [0.05, 0.05, 0.05]
+    props = inertia_mass_properties(body['mass'], body['inertia'])
+    return [float(2.0 * h) for h in props.half_extent]
 
 
 def _list(v) -> list[float]:

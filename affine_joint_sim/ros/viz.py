@@ -1,0 +1,138 @@
+"""The run made visible (design.md §11): ``markers`` (MarkerArray, one marker per shape of
+every body) and ``body_poses`` (PoseArray: every body, or every link frame of a URDF robot),
+both in ``frame_id`` and stamped with sim time, at ``viz_rate`` Hz of sim time; a DELETEALL
+on reset. Both messages are serialized once and then patched in place (``ros.patched``); the
+same bytes are published and recorded.
+"""
+
+import math
+
+from affine_joint_sim.poses import LinkFrames
+from affine_joint_sim.ros.patched import PatchedMessage
+from affine_joint_sim.viz.drawables import drawables
+
+__all__ = ['VizMessages', 'VizSchedule', 'VizPublisher']
+
+_MARKER_TYPES = {'box': 'CUBE', 'cylinder': 'CYLINDER', 'sphere': 'SPHERE',
+                 'mesh': 'MESH_RESOURCE'}
+
+
+class VizSchedule:
+    """When the views are due: at t = 0 and at the first step at or after each multiple of
+    1 / ``rate`` [Hz of sim time]; never for rate 0. Asked every step: one comparison."""
+
+    def __init__(self, rate: float):
+        self.rate = rate
+        self._next_ns = 0 if rate > 0.0 else math.inf
+
+    def due(self, sim_time_ns: int) -> bool:
+        if sim_time_ns < self._next_ns:
+            return False
+        # the next multiple of 1/rate after this time [ns], rounded up to a whole ns
+        slot = math.floor(sim_time_ns * 1e-9 * self.rate + 1e-9) + 1
+        self._next_ns = math.ceil(slot / self.rate * 1e9 - 1.0)
+        return True
+
+    def reset(self) -> None:
+        self._next_ns = 0 if self.rate > 0.0 else math.inf
+
+
+class VizMessages:
+    """The markers and body_poses of a stepper's scene (environment 0), as prebuilt serialized
+    messages; the poses come from one kernel launch (``Stepper.pose_reader``).
+
+    """
+
+    def __init__(self, sim, frame_id: str):
+        from geometry_msgs.msg import Pose, PoseArray
+        from visualization_msgs.msg import Marker, MarkerArray
+
+        scene = sim.scene
+        self._items = drawables(scene)
+        self._links = LinkFrames(scene)
+        names = [b.name for b in scene.bodies]
+        markers = []
+        for i, item in enumerate(self._items):
+            marker = Marker(ns=names[item.body], id=i, action=Marker.ADD,
+                            type=getattr(Marker, _MARKER_TYPES[item.kind]))
+            marker.header.frame_id = frame_id
+            marker.scale.x, marker.scale.y, marker.scale.z = map(float, item.scale)
+            marker.color.r, marker.color.g, marker.color.b, marker.color.a = map(
+                float, item.color)
+            if item.mesh_path:
+                marker.mesh_resource = 'file://' + item.mesh_path
+                marker.mesh_use_embedded_materials = True
+            markers.append(marker)
+        self.markers = PatchedMessage(MarkerArray(markers=markers), _pose_fields(
+            [m.pose for m in markers]), [m.header for m in markers])
+        poses = PoseArray(poses=[Pose() for _ in self._links.names])
+        poses.header.frame_id = frame_id
+        self.poses = PatchedMessage(poses, _pose_fields(poses.poses), [poses.header])
+        clear = Marker(action=Marker.DELETEALL)
+        clear.header.frame_id = frame_id
+        self.delete_all = MarkerArray(markers=[clear])
+        # one launch: the shapes, then the link frames
+        self._read = sim.pose_reader(
+            [item.body for item in self._items] + list(self._links.body),
+            [item.local for item in self._items] + list(self._links.local))
+        self._count = len(self._items)
+        self._values = None
+
+    @property
+    def strain(self) -> float:
+        """Max over the bodies drawn or framed of ‖AAᵀ − I‖_F at the last update: how far the
+        affine bodies are from rigid (the orthogonality energy's measure); 0 before any."""
+        return 0.0 if self._values is None else float(self._values[:, 7].max(initial=0.0))
+
+    def update(self, stamp_ns: int) -> tuple[bytes, bytes]:
+        """Serialized (markers, body_poses) of the stepper's current state, stamped
+        ``stamp_ns`` [ns of sim time]."""
+        values = self._values = self._read()
+        return (self.markers.update(values[:self._count, :7], stamp_ns),
+                self.poses.update(values[self._count:, :7], stamp_ns))
+
+
+def _pose_fields(poses) -> list:
+    return [(obj, attr) for pose in poses for obj, attr in (
+        (pose.position, 'x'), (pose.position, 'y'), (pose.position, 'z'),
+        (pose.orientation, 'x'), (pose.orientation, 'y'), (pose.orientation, 'z'),
+        (pose.orientation, 'w'))]
+
+
+class VizPublisher:
+    """The node's ``markers`` and ``body_poses`` publishers and their schedule.
+
+    Args:
+        node: the rclpy node.
+        sim: its Stepper.
+        topics: ``load_topics()``.
+        rate: ``viz_rate`` [Hz of sim time]; 0 creates nothing.
+        frame_id: the frame the poses are in.
+        publish: ``publish(publisher, msg or serialized bytes, t_ns)`` (publishes and records).
+    """
+
+    KEYS = ('markers', 'body_poses')
+
+    def __init__(self, node, sim, topics, rate: float, frame_id: str, publish):
+        self.schedule = VizSchedule(rate)
+        self._publish = publish
+        self.publishers = {}
+        if rate <= 0.0:
+            return
+        self.messages = VizMessages(sim, frame_id)
+        self.publishers = {key: node.create_publisher(topics[key].msg_class, topics[key].name(),
+                                                      topics[key].qos) for key in self.KEYS}
+
+    def publish(self, sim_time_ns: int, t_ns: int) -> None:
+        """Publish (and record) the views of the current state if they are due."""
+        if not self.publishers or not self.schedule.due(sim_time_ns):
+            return
+        markers, poses = self.messages.update(sim_time_ns)
+        self._publish(self.publishers['markers'], markers, t_ns)
+        self._publish(self.publishers['body_poses'], poses, t_ns)
+
+    def reset(self, t_ns: int) -> None:
+        """Clear the viewers' markers (DELETEALL); the next state is published in full."""
+        self.schedule.reset()
+        if self.publishers:
+            self._publish(self.publishers['markers'], self.messages.delete_all, t_ns)
