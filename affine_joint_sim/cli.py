@@ -2,8 +2,8 @@
 
 Subcommands: ``run`` (the node), ``torque`` / ``enable`` / ``echo`` (talk to a running node
 without the ``ros2`` CLI), ``controller`` (the demo PD controller), ``demo`` (``make run``),
-``replay`` (bags) and ``bench``. ROS arguments go last, after ``--ros-args`` (e.g.
-``--params-file``, remappings).
+``replay`` (bags), ``render`` (pictures of a bag) and ``bench``. ROS arguments go last, after
+``--ros-args`` (e.g. ``--params-file``, remappings).
 Modules behind a subcommand are imported only when it runs, so ``--help`` is quick.
 """
 
@@ -100,6 +100,11 @@ def _demo(args, ros_args) -> int:
 def _replay(args, ros_args) -> int:
     from affine_joint_sim.ros import replay
     return replay.main(args)
+
+
+def _render(args, ros_args) -> int:
+    from affine_joint_sim.viz import render
+    return render.main(args)
 
 
 def _bench(args, ros_args) -> int:
@@ -229,6 +234,24 @@ def build_parser() -> argparse.ArgumentParser:
                         help='--publish speed factor (default: 1 = recorded timing)')
     _add_namespace(replay)
     replay.set_defaults(func=_replay)
+
+    render = commands.add_parser(
+        'render', help='draw a bag into a GIF, MP4 or PNG',
+        description='Draw the bodies of a recorded run (its body_poses, or re-simulated when '
+                    'it has none) beside plots of its joint coordinates and efforts.')
+    render.add_argument('bag', help='bag directory (or .mcap/.db3 file)')
+    render.add_argument('--out', required=True, help='output file: .gif, .mp4 or .png')
+    render.add_argument('--fps', type=_positive, default=15.0, help='frames per second of '
+                        'bag time (default 15)')
+    render.add_argument('--width', type=int, default=960, help='pixels (default 960)')
+    render.add_argument('--height', type=int, default=540, help='pixels (default 540)')
+    render.add_argument('--view', default='-60,20', help='camera azimuth,elevation in degrees '
+                        '(default -60,20)')
+    render.add_argument('--from', dest='start', type=_non_negative, default=None,
+                        help='first frame [s of bag time] (a .png: its only frame)')
+    render.add_argument('--to', dest='stop', type=_positive, default=None,
+                        help='last frame [s of bag time] (default: the end)')
+    render.set_defaults(func=_render)
 
     from affine_joint_sim import bench as bench_sections
     bench = commands.add_parser('bench', help='speed and accuracy measurements',

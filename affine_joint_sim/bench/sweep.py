@@ -1,8 +1,8 @@
 """``bench sweep``: the speed/accuracy trade of every knob, measured against independent truth.
 
 For each case of ``bench.cases`` (the packaged scenes under constant torques, a falling chain
-and the URDF arm) every combination of dt, integrator, newton_tol, precision and device is simulated,
-timed and compared with the case's rigid-body reference (``bench.measure``). With MuJoCo
+and the URDF arm) every combination of dt, integrator, newton_tol, precision and device is
+simulated, timed and compared with the case's rigid-body reference (``bench.measure``). With MuJoCo
 installed (extra ``compare``) its Euler and RK4 run the chain cases at the same dts in the same
 run. Writes ``sweep.csv`` (every run), ``sweep.md`` (per case: the cheapest setting reaching
 1e-2/1e-3/1e-4 rad, fitted orders, the Pareto front), ``sweep_<case>.png`` (error against cost
@@ -11,12 +11,11 @@ damping (``bench.damping``).
 """
 
 import itertools
-import sys
-import time
 from pathlib import Path
 from typing import NamedTuple
 
 from affine_joint_sim.bench.section import add_section
+from affine_joint_sim.progress import Progress
 
 __all__ = ['FULL', 'QUICK', 'Settings', 'add_parser', 'run']
 
@@ -34,25 +33,6 @@ FULL = Settings((0.02, 0.01, 0.005, 0.002, 0.001, 0.0005), ('bdf1', 'bdf2'),
                 (1e-2, 1e-4, 1e-6, 1e-8), ('float64', 'float32'), None, 3)
 QUICK = Settings((0.02, 0.005, 0.001), ('bdf1', 'bdf2'), (1e-2, 1e-6), ('float64',),
                  ('pendulum', 'wheel'), 1)
-
-
-class Progress:
-    """A one-line progress bar on stderr: done/total, elapsed time and the current item."""
-
-    def __init__(self, total: int, width: int = 30):
-        self.total, self.width, self.done, self.start = total, width, 0, time.monotonic()
-
-    def show(self, item: str) -> None:
-        filled = self.width * self.done // max(self.total, 1)
-        sys.stderr.write(f'\r[{"#" * filled}{"." * (self.width - filled)}] {self.done}/'
-                         f'{self.total} {time.monotonic() - self.start:5.0f} s  {item:<48.48}')
-        sys.stderr.flush()
-
-    def advance(self) -> None:
-        self.done += 1
-        if self.done == self.total:
-            self.show('done')
-            sys.stderr.write('\n')
 
 
 def _grid(settings: Settings, devices: list[str]):

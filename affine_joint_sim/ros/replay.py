@@ -240,14 +240,21 @@ def _wrap(angle):
 
 
 def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
-           storage: str = 'mcap') -> Divergence:
+           storage: str = 'mcap', on_state=None) -> Divergence:
     """Re-simulate ``bag`` (with its own scene, or ``scene_path``) and compare joint states.
 
     ``out``: a bag directory to write the re-simulated run into (scene, commands, states).
+    ``on_state(bag_ns, stamp_ns, sim)``: called for the initial state and after every step.
     """
     scene = _scene_of(bag, scene_path)
     writer = _OutBag(out, storage, bag, scene) if out is not None else None
-    run = _Resimulation(scene, device, writer.state if writer else None)
+    hooks = [h for h in (writer.state if writer else None, on_state) if h is not None]
+
+    def each_state(*args):
+        for hook in hooks:
+            hook(*args)
+
+    run = _Resimulation(scene, device, each_state if hooks else None)
     names = run.states.names
     divergence = Divergence(names, np.zeros(len(names)), np.zeros(len(names)))
     try:
