@@ -28,7 +28,7 @@ define install_project
 	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test,bench]'
 endef
 
-.PHONY: venv run test bench bags replay lock clean
+.PHONY: venv run test bench bags replay gallery lock clean
 
 venv: $(STAMP)
 
@@ -55,6 +55,19 @@ bags: venv
 # (default: the demo sample bag).
 replay: venv
 	$(VENV)/bin/affine-joint-sim replay $(or $(BAG),bags/demo_pd)
+
+# The README's pictures, drawn from bags recorded here (results/gallery/): the make-run demo
+# and the URDF arm with its gripper under the demo PD controller.
+GALLERY_RENDER := --fps 12 --width 640 --height 360
+gallery: venv
+	rm -rf results/gallery && mkdir -p results/gallery docs
+	$(VENV)/bin/affine-joint-sim demo --duration 3 --record results/gallery/demo
+	$(VENV)/bin/affine-joint-sim render results/gallery/demo --out docs/demo.gif $(GALLERY_RENDER)
+	$(VENV)/bin/affine-joint-sim demo --scene arm6_gripper --target shoulder_pan=1.2 \
+	  --target shoulder_lift=0.5 --target elbow=1.2 --kp 150 --kd 15 --duration 3 \
+	  --record results/gallery/arm6
+	$(VENV)/bin/affine-joint-sim render results/gallery/arm6 --out docs/arm6.gif $(GALLERY_RENDER) \
+	  --view=-50,25
 
 test: venv
 	$(PY) -m pytest -q test

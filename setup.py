@@ -18,7 +18,8 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         (share, ['package.xml']),
-        (share + '/msg_configs', glob('msg_configs/*.yaml') + glob('msg_configs/*.xml')),
+        (share + '/msg_configs', glob('msg_configs/*.yaml') + glob('msg_configs/*.xml')
+         + glob('msg_configs/*.json')),
         (share + '/msg_configs/scenes', glob('msg_configs/scenes/*.yaml')),
         (share + '/msg_configs/robots', glob('msg_configs/robots/*.urdf')),
     ],

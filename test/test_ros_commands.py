@@ -120,3 +120,21 @@ def test_commands_beyond_what_a_step_can_represent_are_dropped():
     assert buffer.torque('a', -100.0) is None
     buffer.apply(sim, 0.0)
     assert sim.torque == {'a': -100.0}
+
+
+def test_a_joint_with_an_effort_limit_clamps_instead_of_dropping():
+    """URDF arm6: shoulder_pan's effort limit (60 N·m) is below what a step represents, so a
+    controller's 150 N·m is clamped to 60 by the stepper, not dropped; a joint without a limit
+    keeps its bound."""
+    from affine_joint_sim.scene import Scene
+    from affine_joint_sim.stepper import Stepper
+
+    sim = Stepper(Scene.load('msg_configs/scenes/arm6.yaml'))
+    buffer = CommandBuffer.for_stepper(sim)
+    assert buffer.torque('shoulder_pan', 150.0) is None
+    with pytest.warns(UserWarning, match='effort_limit'):
+        buffer.apply(sim, 0.0)
+    sim.step()
+    assert sim.efforts[0] == 60.0
+    free = Stepper(Scene.load('msg_configs/scenes/arm.yaml'))
+    assert 'beyond what one step' in CommandBuffer.for_stepper(free).torque('yaw', 1e9)

@@ -165,3 +165,21 @@ def test_generated_urdf_loads_back_to_the_same_bodies(name, tmp_path):
         if joint.limit is not None:
             assert (other.limit.lower, other.limit.upper) == (joint.limit.lower,
                                                               joint.limit.upper)
+
+
+def test_the_foxglove_layout_shows_the_topics_the_node_publishes():
+    import json
+
+    from affine_joint_sim.ros.topics import load_topics
+
+    layout = json.loads((SCENES.parent / 'foxglove_layout.json').read_text())
+    names = {'/' + t.name() for t in load_topics().values() if '{joint}' not in t.template}
+    panel = layout['configById']['3D!affine_joint_sim']
+    assert set(panel['topics']) <= names
+    assert panel['layers']['robot_description']['topic'] in names
+    assert panel['followTf'] == 'world'
+    for key in ('Plot!joint_positions', 'Plot!joint_efforts'):
+        paths = [p['value'] for p in layout['configById'][key]['paths']]
+        assert paths and all(p.split('.')[0] in names for p in paths)
+    panels = {layout['layout']['first'], *layout['layout']['second'].values()} - {'column'}
+    assert panels == set(layout['configById'])

@@ -27,8 +27,10 @@ class Settings(NamedTuple):
 FULL = Settings(fast_seconds=3.0, lockstep_steps=2000)
 QUICK = Settings(fast_seconds=1.0, lockstep_steps=300)
 SCENES = ('pendulum', 'arm')
-# fast-mode runs: (scene, viz_rate [Hz of sim time]); the arm at 0 Hz prices the views
-FAST_RUNS = (('pendulum', 30.0), ('pendulum', 0.0), ('arm', 30.0), ('arm', 0.0))
+# fast-mode runs: (scene, viz_rate [Hz of sim time], a viewer subscribes markers and
+# body_poses); the 0 Hz rows price the views
+FAST_RUNS = (('pendulum', 30.0, True), ('pendulum', 30.0, False), ('pendulum', 0.0, False),
+             ('arm', 30.0, True), ('arm', 30.0, False), ('arm', 0.0, False))
 
 
 def _node(*flags) -> subprocess.Popen:
@@ -57,15 +59,19 @@ def _spin_until(executor, predicate, timeout):
     return predicate()
 
 
-def fast_rate(scene: str, settings: Settings, viz_rate: float = 30.0) -> dict:
+def fast_rate(scene: str, settings: Settings, viz_rate: float = 30.0,
+              viewer: bool = False) -> dict:
     """Steps/s the node publishes in fast mode, and how many one rclpy subscriber of
-    joint_states takes. Nothing subscribes the views: this prices making them (on 2 cores a
-    Python viewer in the same machine would take CPU from the node as well)."""
+    joint_states takes; with ``viewer`` the same process subscribes markers and body_poses
+    too (the node then makes them; a Python viewer on the same 2 cores also takes CPU)."""
     node, executor, topics = _client()
     received = []
     states = topics['joint_states']
     node.create_subscription(states.msg_class, states.name(),
                              lambda m: received.append(time.monotonic()), states.qos)
+    for key in ('markers', 'body_poses') if viewer else ():
+        node.create_subscription(topics[key].msg_class, topics[key].name(), lambda m: None,
+                                 topics[key].qos)
     # Long enough in sim time for ~fast_seconds of wall time at the measured rates.
     sim_seconds = {'pendulum': 100.0, 'arm': 50.0}.get(scene, 50.0) * settings.fast_seconds
     child = _node('--scene', scene, '--mode', 'fast', '--duration', str(sim_seconds),
@@ -79,7 +85,8 @@ def fast_rate(scene: str, settings: Settings, viz_rate: float = 30.0) -> dict:
         node.context.try_shutdown()
     published = float(summary.split(' steps/s')[0].rsplit(' ', 1)[1])
     span = received[-1] - received[0] if len(received) > 1 else float('nan')
-    return {'scene': scene, 'viz_rate': viz_rate, 'published_per_s': published,
+    return {'scene': scene, 'viz_rate': viz_rate, 'viewer': 'yes' if viewer else 'no',
+            'published_per_s': published,
             'received_per_s': (len(received) - 1) / span, 'received': len(received)}
 
 
@@ -116,6 +123,7 @@ def lockstep_latency(scene: str, settings: Settings) -> dict:
 
 
 FAST_COLUMNS = [Column('scene', 'scene'), Column('viz_rate', 'markers [Hz sim]', '{:g}'),
+                Column('viewer', 'viewer subscribed'),
                 Column('published_per_s', 'joint_states published/s (node)', '{:.0f}'),
                 Column('received_per_s', 'received/s (one rclpy subscriber)', '{:.0f}')]
 LOCKSTEP_COLUMNS = [Column('scene', 'scene'), Column('round_trips', 'round trips'),
@@ -127,7 +135,7 @@ LOCKSTEP_COLUMNS = [Column('scene', 'scene'), Column('round_trips', 'round trips
 def run(results: Path, devices: list[str], settings: Settings) -> None:
     """Measure both on the CPU node (the DDS side does not depend on the Warp device)."""
     use_loopback_dds()
-    fast = [fast_rate(scene, settings, rate) for scene, rate in FAST_RUNS]
+    fast = [fast_rate(scene, settings, rate, viewer) for scene, rate, viewer in FAST_RUNS]
     lockstep = [lockstep_latency(scene, settings) for scene in SCENES]
     publish(results, 'ros_fast', '### joint_states rate, fast mode (CPU, dt 0.01 s)\n\n' +
             markdown_table(fast, FAST_COLUMNS) + '\n', fast)

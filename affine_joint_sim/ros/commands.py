@@ -6,6 +6,8 @@ before step n is computed applies to step n (the step from sim time t to t + dt)
 
 import math
 
+import numpy as np
+
 __all__ = ['CommandBuffer']
 
 _TIME_EPS = 1e-9    # [s]: sim times are step counts × dt, so 0.8 - 0.6 must not exceed 0.2
@@ -40,10 +42,15 @@ class CommandBuffer:
     @classmethod
     def for_stepper(cls, sim, command_timeout: float = 0.0,
                     array_joints: list[str] | None = None) -> 'CommandBuffer':
-        """The buffer of a Stepper's command joints, with its drives and its step bounds."""
+        """The buffer of a Stepper's command joints, with its drives and its step bounds (none
+        for a joint whose effort_limit is within its bound: the stepper clamps every command
+        to that limit, as ros2_control and Gazebo do, so none is too large)."""
+        index = sim.command_joint_index
+        bounds = sim.step_effort_bounds[index]
+        limits = np.array([sim.scene.joints[k].effort_limit for k in index])
         return cls(sim.command_joint_names, command_timeout, array_joints=array_joints,
                    drive_joints=sim.drive_joint_names,
-                   effort_bounds=sim.step_effort_bounds[sim.command_joint_index])
+                   effort_bounds=np.where(limits <= bounds, np.inf, bounds))
 
     def reset(self, torques, sim_time: float = 0.0) -> None:
         """Forget pending commands; ``torques`` [N·m] (the scene's) count as commanded at

@@ -154,7 +154,8 @@ class SimNode(Node):
             t['robot_description'].msg_class, t['robot_description'].name(),
             t['robot_description'].qos)
         self.viz = VizPublisher(self, self.sim, t, self.config['viz_rate'],
-                                self.config['frame_id'], self._publish_and_record)
+                                self.config['frame_id'], self._publish_and_record,
+                                lambda: self.recording.active)
         for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
             for key in JOINT_COMMAND_KEYS.get(kind, ()):
                 self._subscribe(key, joint)

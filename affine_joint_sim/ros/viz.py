@@ -109,13 +109,16 @@ class VizPublisher:
         rate: ``viz_rate`` [Hz of sim time]; 0 creates nothing.
         frame_id: the frame the poses are in.
         publish: ``publish(publisher, msg or serialized bytes, t_ns)`` (publishes and records).
+        recording: ``recording()`` says whether the run is being recorded: views nobody
+            subscribes to and no bag records are not computed (a viewer that joins gets the
+            next one, at most 1/rate later).
     """
 
     KEYS = ('markers', 'body_poses')
 
-    def __init__(self, node, sim, topics, rate: float, frame_id: str, publish):
+    def __init__(self, node, sim, topics, rate: float, frame_id: str, publish, recording):
         self.schedule = VizSchedule(rate)
-        self._publish = publish
+        self._publish, self._recording = publish, recording
         self.publishers = {}
         if rate <= 0.0:
             return
@@ -126,6 +129,9 @@ class VizPublisher:
     def publish(self, sim_time_ns: int, t_ns: int) -> None:
         """Publish (and record) the views of the current state if they are due."""
         if not self.publishers or not self.schedule.due(sim_time_ns):
+            return
+        if not self._recording() and not any(p.get_subscription_count()
+                                             for p in self.publishers.values()):
             return
         markers, poses = self.messages.update(sim_time_ns)
         self._publish(self.publishers['markers'], markers, t_ns)
