@@ -288,10 +288,10 @@ class Stepper:
     def pose_reader(self, body, local, env: int = 0):
         """A function that returns, each time it is called, the rigid world poses of frames on
         the bodies of environment ``env``: frame i on body ``body[i]`` at pose ``local[i]``
-        (4×4) in that body's frame. It returns a (n, 8) float64 array (valid until the next
-        call): position [m], quaternion (x, y, z, w), w ≥ 0, of R·local with R the rotation
-        nearest to the body's A, and the body's strain ‖AAᵀ − I‖_F (physics.frames). One
-        replay of a captured launch, no Python per frame."""
+        (4×4) in that body's frame. It returns a (n, 7) float64 array (valid until the next
+        call): position [m] and quaternion (x, y, z, w), w ≥ 0, of R·local with R the rotation
+        nearest to the body's A (physics.frames). One replay of a captured launch, no Python
+        per frame."""
         k = step_kernels(scalar_of(self.scene.solver.precision))
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
         dtype = k.numpy_scalar
@@ -342,6 +342,10 @@ class Stepper:
         torqued = (self._enabled != 0) & (self._torque != 0.0) & (self._host.joint_has_free != 0)
         stats['active_terms'] = list(self._host.active_terms) + ['torque'] * bool(torqued.any())
         stats['launches_per_step'] = 1
+        free = self._host.body_fixed == 0
+        a = self._q[:, free, 3:].reshape(self._envs, -1, 3, 3)
+        strain = np.linalg.norm(a @ np.swapaxes(a, -1, -2) - np.eye(3), axis=(-2, -1))
+        stats['rotation_strain'] = self._out(strain.max(axis=-1, initial=0.0))
         return stats
 
     # ---- internals --------------------------------------------------------------------------

@@ -5,7 +5,7 @@ body's rest frame. Its world pose uses the rotation R nearest to the body's A (t
 decomposition's, R = U Vᵀ of A = U Σ Vᵀ; for the nearly rigid A of a running simulation three
 Newton–Schulz steps R ← R (3 − RᵀR) / 2 reach it to rounding at a fraction of an SVD's cost,
 an SVD is taken when ‖AᵀA − I‖_F ≥ 0.1): position p + R·offset, orientation R·rotation as a
-unit quaternion (x, y, z, w) with w ≥ 0. Column 7 is the body's strain ‖AAᵀ − I‖_F.
+unit quaternion (x, y, z, w) with w ≥ 0.
 Built per precision, in a Warp module of its own (only scenes that are viewed compile it).
 """
 
@@ -15,7 +15,7 @@ import warp as wp
 
 __all__ = ['build', 'POSE_COLUMNS']
 
-POSE_COLUMNS = 8            # x y z, qx qy qz qw, strain
+POSE_COLUMNS = 7            # x y z, qx qy qz qw
 
 
 def build(t) -> SimpleNamespace:
@@ -79,7 +79,6 @@ def build(t) -> SimpleNamespace:
             r = u * wp.transpose(v)
         p = vec3(state[0], state[1], state[2]) + r * offset[i]
         x, y, z, w = quaternion(r * rotation[i])
-        strain = a * wp.transpose(a) - eye
         out[i, 0] = wp.float64(p[0])
         out[i, 1] = wp.float64(p[1])
         out[i, 2] = wp.float64(p[2])
@@ -87,6 +86,5 @@ def build(t) -> SimpleNamespace:
         out[i, 4] = wp.float64(y)
         out[i, 5] = wp.float64(z)
         out[i, 6] = wp.float64(w)
-        out[i, 7] = wp.float64(wp.sqrt(wp.ddot(strain, strain)))
 
     return SimpleNamespace(frame_poses=frame_poses)

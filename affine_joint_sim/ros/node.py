@@ -509,5 +509,5 @@ class SimNode(Node):
                 'taken': self.taken,
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
                 'bag': self.config['record'] or None,
-                'strain': self.viz.messages.strain if self.viz.publishers else None,
+                'rotation_strain': float(self.sim.stats['rotation_strain']),
                 'recording_stopped': self.recording.stopped}

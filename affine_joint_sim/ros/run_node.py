@@ -81,8 +81,8 @@ def print_summary(summary: dict) -> None:
     dropped = {k: v for k, v in summary['dropped'].items() if v}
     print(f'commands taken: {summary["taken"]}' + (
         '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else ''))
-    if summary.get('strain') is not None:
-        print(f'bodies drawn rigid; largest ‖AAᵀ − I‖ in the last view: {summary["strain"]:.2g}')
+    print(f'largest ‖AAᵀ − I‖ of a moving body at the end: {summary["rotation_strain"]:.2g} '
+          '(stats rotation_strain; viewers draw the nearest rotation)')
     if summary['bag']:
         stopped = summary['recording_stopped']
         print(f'bag: {Path(summary["bag"]).resolve()}' +

@@ -76,20 +76,13 @@ class VizMessages:
             [item.body for item in self._items] + list(self._links.body),
             [item.local for item in self._items] + list(self._links.local))
         self._count = len(self._items)
-        self._values = None
-
-    @property
-    def strain(self) -> float:
-        """Max over the bodies drawn or framed of ‖AAᵀ − I‖_F at the last update: how far the
-        affine bodies are from rigid (the orthogonality energy's measure); 0 before any."""
-        return 0.0 if self._values is None else float(self._values[:, 7].max(initial=0.0))
 
     def update(self, stamp_ns: int) -> tuple[bytes, bytes]:
         """Serialized (markers, body_poses) of the stepper's current state, stamped
         ``stamp_ns`` [ns of sim time]."""
-        values = self._values = self._read()
-        return (self.markers.update(values[:self._count, :7], stamp_ns),
-                self.poses.update(values[self._count:, :7], stamp_ns))
+        values = self._read()
+        return (self.markers.update(values[:self._count], stamp_ns),
+                self.poses.update(values[self._count:], stamp_ns))
 
 
 def _pose_fields(poses) -> list:
