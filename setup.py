@@ -42,6 +42,7 @@ setup(
         'bench': ['matplotlib'],    # plots of `make bench`
         'compare': ['mujoco'],      # MuJoCo as a reference in `make bench` (optional)
         'reference': ['pin>=3,<5'],   # Pinocchio checks the URDF robots' reference (optional)
+        'cluster': ['ray>=2.40,<3'],  # replay/sweep on a Ray cluster (optional)
     },
     entry_points={
         'console_scripts': ['affine-joint-sim = affine_joint_sim.cli:main'],

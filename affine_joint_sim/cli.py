@@ -98,7 +98,22 @@ def _demo(args, ros_args) -> int:
 
 
 def _replay(args, ros_args) -> int:
+    from affine_joint_sim.fleet.bags import holds_bags
+    many = len(args.bag) > 1 or args.workers or args.ray or args.report or holds_bags(
+        args.bag[0])
+    if many:
+        if args.out or args.publish:
+            print('affine-joint-sim replay: error: --out and --publish take one bag',
+                  file=sys.stderr)
+            return 2
+        if args.workers is not None and args.workers < 1:
+            print(f'affine-joint-sim replay: error: --workers {args.workers}: must be >= 1',
+                  file=sys.stderr)
+            return 2
+        from affine_joint_sim.fleet import cli as fleet
+        return fleet.main(args)
     from affine_joint_sim.ros import replay
+    args.bag = args.bag[0]
     return replay.main(args)
 
 
@@ -218,7 +233,9 @@ def build_parser() -> argparse.ArgumentParser:
         description='Re-simulate BAG from its own scene and commands and compare with the '
                     'recorded joint states (exit 1 above --tol, 2 on errors); with --scene, '
                     'a what-if against another scene; with --publish, play its commands on ROS.')
-    replay.add_argument('bag', type=Path, help='rosbag2 directory (or one .mcap/.db3 file)')
+    replay.add_argument('bag', type=Path, nargs='+',
+                        help='rosbag2 directory (or one .mcap/.db3 file); several, a directory '
+                             'of bags or a quoted glob re-simulate them all in parallel')
     replay.add_argument('--tol', type=_non_negative, default=1e-9,
                         help='largest |Δθ| [rad] or |Δω| [rad/s] accepted (default: %(default)g, '
                              'for the same device and precision)')
@@ -232,6 +249,14 @@ def build_parser() -> argparse.ArgumentParser:
                         help='publish the recorded commands on ROS at recorded timing instead')
     replay.add_argument('--rate', type=_positive, default=1.0,
                         help='--publish speed factor (default: 1 = recorded timing)')
+    replay.add_argument('--workers', type=int, default=None,
+                        help='many bags: worker processes (default: one per CPU)')
+    replay.add_argument('--ray', metavar='ADDRESS',
+                        help="many bags: run on Ray: 'local' (started for this run), 'auto' "
+                             "(this machine's `ray start` cluster) or HOST:PORT (extra "
+                             "'cluster')")
+    replay.add_argument('--report', type=Path,
+                        help='many bags: write the per-bag results to this .json or .csv')
     _add_namespace(replay)
     replay.set_defaults(func=_replay)
 

@@ -1,0 +1,70 @@
+"""``affine-joint-sim replay BAG... [--workers N | --ray ADDRESS] [--report FILE]``."""
+
+import os
+import sys
+import time
+from pathlib import Path
+
+from affine_joint_sim.fleet.bags import expand_bags
+from affine_joint_sim.fleet.executors import run_pool, run_ray, run_serial
+from affine_joint_sim.fleet.jobs import replay_job
+from affine_joint_sim.fleet.report import table, write_report
+from affine_joint_sim.progress import Progress
+
+__all__ = ['main', 'workers_for']
+
+
+def workers_for(requested: int | None, jobs: int) -> int:
+    """Processes to use: as asked, else one per CPU; never more than there are jobs."""
+    return max(1, min(requested or os.cpu_count() or 1, jobs))
+
+
+def main(args) -> int:
+    """Replay every bag named; exit 0 when all are within --tol, 1 when one diverged, 2 when
+    one could not be read (each listed; the others are still done)."""
+    report = Path(args.report) if args.report else None
+    if report is not None and (report.suffix.lower() not in ('.json', '.csv')
+                               or not report.parent.is_dir()):
+        print(f'affine-joint-sim replay: error: --report {report}: must be a .json or .csv '
+              'file in an existing directory', file=sys.stderr)
+        return 2
+    bags, problems = expand_bags([str(b) for b in args.bag])
+    jobs = [{'bag': str(b), 'tol': args.tol, 'scene': args.scene, 'device': args.device}
+            for b in bags]
+    bar = Progress(len(jobs))
+
+    start = time.perf_counter()
+    try:
+        if args.ray:
+            results = run_ray(replay_job, jobs, args.ray, lambda r: _tick(bar, r))
+            how = f'Ray at {args.ray}'
+        elif workers_for(args.workers, len(jobs)) == 1:
+            results = run_serial(replay_job, jobs, lambda r: _tick(bar, r))
+            how = 'this process'
+        else:
+            count = workers_for(args.workers, len(jobs))
+            results = run_pool(replay_job, jobs, count, lambda r: _tick(bar, r),
+                               lambda message: print(f'\nnote: {message}', file=sys.stderr))
+            how = f'{count} worker processes'
+    except RuntimeError as exc:
+        print(f'affine-joint-sim replay: error: {exc}', file=sys.stderr)
+        return 2
+    wall = time.perf_counter() - start
+    results += [{'bag': arg, 'status': 'error', 'states': 0, 'max_angle': float('nan'),
+                 'max_velocity': float('nan'), 'worst': float('nan'), 'seconds': 0.0,
+                 'error': why} for arg, why in problems]
+    counts = {s: sum(r['status'] == s for r in results) for s in ('pass', 'fail', 'error')}
+    print(table(results))
+    print(f'{len(results)} bags on {how} in {wall:.1f} s (sum of job times '
+          f'{sum(r["seconds"] for r in results):.1f} s): {counts["pass"]} within --tol '
+          f'{args.tol:g}, {counts["fail"]} above, {counts["error"]} unreadable')
+    if report is not None:
+        write_report(report, results, {'tol': args.tol, 'executor': how, 'wall_seconds': wall,
+                                       **counts})
+        print(f'report: {report.resolve()}')
+    return 2 if counts['error'] else 1 if counts['fail'] else 0
+
+
+def _tick(bar: Progress, result: dict) -> None:
+    bar.show(Path(result['bag']).name)
+    bar.advance()

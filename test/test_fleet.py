@@ -1,0 +1,142 @@
+"""Many bags at once: parallel replay equals serial replay exactly, a damaged or missing bag is
+reported while the rest completes, a worker killed mid-run costs nothing but a retry, a
+diverging bag fails the run, and (with Ray installed) a local Ray gives the same report."""
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from affine_joint_sim.fleet.bags import expand_bags
+from affine_joint_sim.ros.replay import read_bag, replay
+
+REPO = Path(__file__).resolve().parent.parent
+SAMPLES = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').exists())
+
+
+def cli(*args, timeout=300):
+    return subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.fixture(scope='module')
+def fleet(tmp_path_factory):
+    """The sample bags plus 8 generated ones (each sample re-simulated into a new bag)."""
+    root = tmp_path_factory.mktemp('fleet')
+    for sample in SAMPLES:
+        shutil.copytree(sample, root / sample.name)
+    for k in range(8):
+        replay(read_bag(SAMPLES[k % len(SAMPLES)]), out=root / f'made{k}')
+    return root
+
+
+def report(tmp_path, name, *args):
+    path = tmp_path / f'{name}.json'
+    done = cli('replay', *args, '--report', path)
+    rows = json.loads(path.read_text())['bags'] if path.exists() else []
+    return done, [{k: v for k, v in row.items() if k != 'seconds'} for row in rows]
+
+
+def test_parallel_replay_equals_serial_replay_exactly(fleet, tmp_path):
+    serial, rows = report(tmp_path, 'serial', fleet, '--workers', 1)
+    parallel, rows2 = report(tmp_path, 'parallel', fleet, '--workers', 2)
+    assert serial.returncode == parallel.returncode == 0, serial.stderr + parallel.stderr
+    assert len(rows) == len(SAMPLES) + 8 and rows == rows2
+    assert all(r['status'] == 'pass' and r['worst'] == 0.0 for r in rows)
+    assert 'on 2 worker processes' in parallel.stdout
+
+
+def test_a_damaged_or_missing_bag_is_listed_and_the_rest_done(fleet, tmp_path):
+    damaged = tmp_path / 'damaged'
+    shutil.copytree(fleet / 'made0', damaged)
+    for part in damaged.glob('*.mcap'):
+        part.write_bytes(part.read_bytes()[:len(part.read_bytes()) // 2])
+    done, rows = report(tmp_path, 'damaged', f'{fleet}/made[1-3]', damaged,
+                        tmp_path / 'nowhere', '--workers', 2)
+    assert done.returncode == 2, done.stdout + done.stderr
+    by_bag = {Path(r['bag']).name: r for r in rows}
+    assert [by_bag[f'made{k}']['status'] for k in (1, 2, 3)] == ['pass'] * 3
+    assert by_bag['damaged']['status'] == 'error' and by_bag['damaged']['error']
+    assert by_bag['nowhere'] == {**by_bag['nowhere'], 'status': 'error',
+                                 'error': 'no such file or directory'}
+    assert '3 within --tol' in done.stdout and '2 unreadable' in done.stdout
+
+
+def test_a_diverging_bag_fails_the_run(fleet, tmp_path):
+    scene = (REPO / 'msg_configs' / 'scenes' / 'pendulum.yaml').read_text()
+    other = tmp_path / 'heavier_gravity.yaml'
+    other.write_text(scene + 'gravity: [0.0, 0.0, -12.0]\n')
+    done, rows = report(tmp_path, 'whatif', fleet / 'torque_step', fleet / 'made1',
+                        '--scene', other, '--workers', 2)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert [r['status'] for r in rows] == ['fail', 'fail'] and rows[0]['worst'] > 1e-3
+
+
+def _workers(parent: int) -> list[int]:
+    """Pids of the multiprocessing workers (spawned children) of process ``parent``."""
+    found = []
+    for entry in Path('/proc').iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            ppid = int((entry / 'stat').read_text().rsplit(')', 1)[1].split()[1])
+            command = (entry / 'cmdline').read_bytes()
+        except (OSError, IndexError, ValueError):
+            continue
+        if ppid == parent and b'spawn_main' in command:
+            found.append(int(entry.name))
+    return found
+
+
+def test_a_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_path):
+    path = tmp_path / 'killed.json'
+    child = subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'replay', fleet,
+                              '--workers', '2', '--report', path],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline, victim = time.monotonic() + 60, None
+    while victim is None and time.monotonic() < deadline and child.poll() is None:
+        workers = _workers(child.pid)
+        if len(workers) == 2:                    # starting up or inside its first jobs
+            victim = workers[0]
+            os.kill(victim, signal.SIGKILL)
+        time.sleep(0.02)
+    out, err = child.communicate(timeout=300)
+    assert victim is not None, 'no worker to kill'
+    assert child.returncode == 0, out + err
+    assert 'a worker process died' in err
+    rows = json.loads(path.read_text())['bags']
+    assert len(rows) == len(SAMPLES) + 8 and all(r['status'] == 'pass' for r in rows)
+
+
+def test_local_ray_gives_the_same_report(fleet, tmp_path):
+    pytest.importorskip('ray')
+    _, serial = report(tmp_path, 'serial', fleet, '--workers', 1)
+    done, rows = report(tmp_path, 'ray', fleet, '--ray', 'local')
+    assert done.returncode == 0, done.stderr
+    assert rows == serial and 'on Ray at local' in done.stdout
+
+
+def test_without_ray_the_ray_flag_says_what_to_install(fleet, tmp_path, monkeypatch):
+    try:
+        import ray  # noqa: F401
+        pytest.skip('Ray is installed here')
+    except ImportError:
+        pass
+    done = cli('replay', fleet / 'made0', '--ray', 'local')
+    assert done.returncode == 2 and "pip install -e '.[cluster]'" in done.stderr
+
+
+def test_bag_arguments_expand_to_bags(fleet, tmp_path):
+    (tmp_path / 'empty').mkdir()
+    bags, problems = expand_bags([str(fleet), str(fleet / 'made1'), f'{fleet}/made[12]',
+                                  str(tmp_path / 'empty'), str(tmp_path / 'gone*')])
+    assert len(bags) == len(SAMPLES) + 8 and len(set(bags)) == len(bags)
+    assert problems == [(str(tmp_path / 'empty'), 'not a bag (no metadata.yaml, .mcap or '
+                         '.db3), and no bags inside'),
+                        (str(tmp_path / 'gone*'), 'no such file or directory')]
