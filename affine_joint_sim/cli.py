@@ -2,8 +2,8 @@
 
 Subcommands: ``run`` (the node), ``torque`` / ``enable`` / ``echo`` (talk to a running node
 without the ``ros2`` CLI), ``controller`` (the demo PD controller), ``demo`` (``make run``),
-``replay`` (bags), ``render`` (pictures of a bag) and ``bench``. ROS arguments go last, after
-``--ros-args`` (e.g. ``--params-file``, remappings).
+``replay`` (bags), ``render`` (pictures of a bag), ``sweep`` and ``bench``. ROS arguments go
+last, after ``--ros-args`` (e.g. ``--params-file``, remappings).
 Modules behind a subcommand are imported only when it runs, so ``--help`` is quick.
 """
 
@@ -117,6 +117,11 @@ def _replay(args, ros_args) -> int:
     return replay.main(args)
 
 
+def _sweep(args, ros_args) -> int:
+    from affine_joint_sim.fleet import sweep
+    return sweep.main(args)
+
+
 def _render(args, ros_args) -> int:
     from affine_joint_sim.viz import render
     return render.main(args)
@@ -125,6 +130,15 @@ def _render(args, ros_args) -> int:
 def _bench(args, ros_args) -> int:
     from affine_joint_sim import bench
     return bench.main(args)
+
+
+def _add_executor(parser, prefix: str = ''):
+    parser.add_argument('--workers', type=int, default=None,
+                        help=f'{prefix}worker processes (default: one per CPU)')
+    parser.add_argument('--ray', metavar='ADDRESS',
+                        help=f"{prefix}run on Ray: 'local' (started for this run), 'auto' "
+                             "(this machine's `ray start` cluster) or HOST:PORT (extra "
+                             "'cluster')")
 
 
 def _add_interface(parser):
@@ -249,12 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help='publish the recorded commands on ROS at recorded timing instead')
     replay.add_argument('--rate', type=_positive, default=1.0,
                         help='--publish speed factor (default: 1 = recorded timing)')
-    replay.add_argument('--workers', type=int, default=None,
-                        help='many bags: worker processes (default: one per CPU)')
-    replay.add_argument('--ray', metavar='ADDRESS',
-                        help="many bags: run on Ray: 'local' (started for this run), 'auto' "
-                             "(this machine's `ray start` cluster) or HOST:PORT (extra "
-                             "'cluster')")
+    _add_executor(replay, 'many bags: ')
     replay.add_argument('--report', type=Path,
                         help='many bags: write the per-bag results to this .json or .csv')
     _add_namespace(replay)
@@ -277,6 +286,17 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument('--to', dest='stop', type=_positive, default=None,
                         help='last frame [s of bag time] (default: the end)')
     render.set_defaults(func=_render)
+
+    sweep = commands.add_parser(
+        'sweep', help='the speed/accuracy sweep over a declared grid, in parallel',
+        description='Run the bench sweep over the cases, scenes and solver settings of SPEC '
+                    '(YAML: cases, scenes, dt, integrator, newton_tol, precision, device, '
+                    'repeats) as parallel jobs; write sweep.csv, sweep.md and plots to --out.')
+    sweep.add_argument('spec', type=Path, help='sweep spec YAML')
+    sweep.add_argument('--out', type=Path, default=Path('results/sweep'),
+                       help='output directory (default: %(default)s)')
+    _add_executor(sweep)
+    sweep.set_defaults(func=_sweep)
 
     from affine_joint_sim import bench as bench_sections
     bench = commands.add_parser('bench', help='speed and accuracy measurements',

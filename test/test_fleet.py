@@ -15,14 +15,10 @@ import pytest
 
 from affine_joint_sim.fleet.bags import expand_bags
 from affine_joint_sim.ros.replay import read_bag, replay
+from helpers.cli import cli
 
 REPO = Path(__file__).resolve().parent.parent
 SAMPLES = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').exists())
-
-
-def cli(*args, timeout=300):
-    return subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
 
 
 @pytest.fixture(scope='module')
@@ -140,3 +136,50 @@ def test_bag_arguments_expand_to_bags(fleet, tmp_path):
     assert problems == [(str(tmp_path / 'empty'), 'not a bag (no metadata.yaml, .mcap or '
                          '.db3), and no bags inside'),
                         (str(tmp_path / 'gone*'), 'no such file or directory')]
+
+
+SPEC = '''cases: [pendulum]
+scenes:
+  - {scene: double_pendulum, torques: {shoulder: 1.0}, duration: 0.3}
+dt: [0.01, 0.005]
+integrator: [bdf1, bdf2]
+'''
+TIMING = ('us_per_step', 'ms_per_sim_s')
+
+
+def sweep_rows(tmp_path, name, *args):
+    import csv
+
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SPEC)
+    done = cli('sweep', spec, '--out', tmp_path / name, *args)
+    assert done.returncode == 0, done.stdout + done.stderr
+    with (tmp_path / name / 'sweep.csv').open() as stream:
+        return [{k: v for k, v in row.items() if k not in TIMING}
+                for row in csv.DictReader(stream)], done
+
+
+@pytest.mark.parametrize('executor', [('--workers', '2'), ('--ray', 'local')],
+                         ids=['workers', 'ray'])
+def test_a_parallel_sweep_writes_the_rows_of_a_serial_one(tmp_path, executor):
+    if executor[0] == '--ray':
+        pytest.importorskip('ray')
+    serial, _ = sweep_rows(tmp_path, 'serial', '--workers', '1')
+    rows, done = sweep_rows(tmp_path, 'parallel', *executor)
+    assert [(r['scene'], r['integrator'], float(r['dt'])) for r in rows] == [
+        (scene, integrator, dt) for scene in ('pendulum', 'double_pendulum')
+        for integrator in ('bdf1', 'bdf2') for dt in (0.01, 0.005)]
+    assert rows == serial                    # every figure but wall time, bit for bit
+    assert all(float(r['error_rad']) < 0.05 for r in rows)
+    assert (tmp_path / 'parallel' / 'sweep_double_pendulum.png').exists()
+
+
+def test_a_bad_sweep_spec_is_refused(tmp_path):
+    spec = tmp_path / 'spec.yaml'
+    for text, words in (('cases: [nope]\n', "cases ['nope'] are not sweep cases"),
+                        ('dt: [0.01]\n', 'at least one entry in cases: or scenes:'),
+                        ('cases: [pendulum]\ndt: [-1]\n', 'dt[0]'),
+                        ('scenes: [{scene: gantry}]\n', 'gantry')):
+        spec.write_text(text)
+        done = cli('sweep', spec, '--out', tmp_path / 'out')
+        assert done.returncode == 2 and words in done.stderr, done.stderr

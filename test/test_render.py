@@ -1,20 +1,13 @@
 """``affine-joint-sim render``: GIFs and PNGs of real recorded bags, drawn from their
 body_poses or re-simulated when a bag has none; bad input gets one line and exit 2."""
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 from PIL import Image
 
 from affine_joint_sim.ros.recorder import BagRecorder
 from affine_joint_sim.viz.render import load_track
-
-
-def cli(*args, timeout=180):
-    return subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
+from helpers.cli import cli
 
 
 @pytest.fixture(scope='module')

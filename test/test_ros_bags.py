@@ -16,6 +16,7 @@ from std_srvs.srv import Trigger
 
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.topics import load_topics
+from helpers.cli import cli
 from helpers.logged_node import LoggedNode
 from helpers.ros_client import Inbox, call, publisher, stamp_ns
 
@@ -24,11 +25,6 @@ DT_10 = 10 * 10_000_000         # ten steps of the pendulum [ns]
 
 REPO = Path(__file__).resolve().parent.parent
 SAMPLE_BAGS = sorted(p.parent for p in (REPO / 'bags').glob('*/metadata.yaml'))
-
-
-def cli(*args, timeout=120):
-    return subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
 
 
 def bag_messages(path) -> dict[str, list]:

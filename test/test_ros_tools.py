@@ -7,12 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from helpers.cli import cli
 from helpers.ros_client import Inbox
-
-
-def cli(*args, timeout=60):
-    return subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
 
 
 def test_torque_enable_and_echo(sim, ros_node, wait_for):

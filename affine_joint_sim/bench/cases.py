@@ -22,7 +22,8 @@ from affine_joint_sim.chain import chain_scene
 from affine_joint_sim.resources import config_dir, scene_path
 from affine_joint_sim.scene import Scene
 
-__all__ = ['Case', 'Reference', 'SAMPLE_EVERY', 'cases', 'reference', 'with_settings']
+__all__ = ['Case', 'Reference', 'SAMPLE_EVERY', 'cases', 'custom_case', 'reference',
+           'with_settings']
 
 SAMPLE_EVERY = 0.1       # s between the samples where angles are compared
 REFERENCE_STEP = 2e-3    # s, RK4 step of the reference (checked against half of it)
@@ -72,6 +73,20 @@ def cases() -> list[Case]:
         Case('arm6', _packaged('arm6'), {'shoulder_pan': 0.5}, 0.4,
              urdf=config_dir() / 'robots' / 'arm6.urdf'),
     ]
+
+
+def custom_case(scene: str, torques: tuple, duration: float) -> Case:
+    """A case of any scene file (YAML or URDF) or packaged scene under constant ``torques``
+    ((joint, N·m) pairs) for ``duration`` [s]; its truth is the rigid tree (revolute joints,
+    every body on a path from a fixed one, starting at rest)."""
+    path = scene_path(scene)
+    loaded = Scene.load(path)
+    other = [f'{j.name} ({j.type})' for j in loaded.joints if j.type != 'revolute']
+    if other:
+        raise ValueError(f'scene {scene!r}: the rigid reference takes revolute joints only, '
+                         f'not {", ".join(other)}')
+    return Case(Path(scene).stem, loaded, dict(torques), duration,
+                urdf=path if path.suffix.lower() == '.urdf' else None)
 
 
 def with_settings(scene: Scene, dt: float, integrator: str, newton_tol: float,

@@ -10,6 +10,7 @@ per knob) and ``order_<case>.png`` (log error against log dt), plus the wheel's 
 damping (``bench.damping``).
 """
 
+import functools
 import itertools
 from pathlib import Path
 from typing import NamedTuple
@@ -27,6 +28,7 @@ class Settings(NamedTuple):
     precisions: tuple
     cases: tuple | None   # case names (None: all)
     repeats: int          # timed runs per setting (median reported)
+    damping: bool = True  # the wheel's rotational damping section too
 
 
 FULL = Settings((0.02, 0.01, 0.005, 0.002, 0.001, 0.0005), ('bdf1', 'bdf2'),
@@ -41,24 +43,46 @@ def _grid(settings: Settings, devices: list[str]):
                                   settings.tolerances, settings.dts))
 
 
-def measure_case(case, settings: Settings, devices: list[str], progress: Progress):
-    """All rows of one case: the stepper on the grid, MuJoCo's Euler and RK4 on the dts."""
-    from affine_joint_sim.bench.cases import reference
-    from affine_joint_sim.bench.measure import run_mujoco, run_stepper
+def setting_jobs(case_keys: list, settings: Settings, devices: list[str]) -> list[dict]:
+    """One job per case and setting of the grid (``sweep_job``'s arguments)."""
+    return [dict(case=key, device=device, precision=precision, integrator=integrator,
+                 newton_tol=tol, dt=dt, repeats=settings.repeats)
+            for key in case_keys
+            for device, precision, integrator, tol, dt in _grid(settings, devices)]
 
-    progress.show(f'{case.name}: reference')
-    truth = reference(case)
+
+@functools.lru_cache(maxsize=None)
+def case_and_truth(key):
+    """The case a key names (a bench case's name, or ``sweep_spec.custom_key``'s tuple) and its
+    reference, computed once per process."""
+    from affine_joint_sim.bench.cases import cases, custom_case, reference
+
+    case = (next(c for c in cases() if c.name == key) if isinstance(key, str) else
+            custom_case(*key))
+    return case, reference(case)
+
+
+def sweep_job(case, device: str, precision: str, integrator: str, newton_tol: float,
+              dt: float, repeats: int) -> dict:
+    """One row of the sweep: the stepper on one case at one setting, against its truth."""
+    from affine_joint_sim.bench.measure import run_stepper
+
+    found, truth = case_and_truth(case)
+    return run_stepper(found, truth, dt=dt, integrator=integrator, newton_tol=newton_tol,
+                       precision=precision, device=device, repeats=repeats)
+
+
+def mujoco_rows(case, truth, settings: Settings) -> list[dict]:
+    """MuJoCo's Euler and RK4 on the dts, where the case has a MuJoCo twin and MuJoCo is
+    installed."""
+    from affine_joint_sim.bench.measure import run_mujoco
+
     rows = []
-    for device, precision, integrator, tol, dt in _grid(settings, devices):
-        progress.show(f'{case.name} {device} {precision} {integrator} tol {tol:g} dt {dt:g}')
-        rows.append(run_stepper(case, truth, dt=dt, integrator=integrator, newton_tol=tol,
-                                precision=precision, device=device, repeats=settings.repeats))
-        progress.advance()
     for integrator, dt in itertools.product(('Euler', 'RK4'), settings.dts):
         row = run_mujoco(case, truth, dt=dt, integrator=integrator, repeats=settings.repeats)
         if row is not None:
             rows.append(row)
-    return truth, rows
+    return rows
 
 
 def fit_floor(truth) -> float:
@@ -89,38 +113,55 @@ def _summary(case_name: str, truth, rows: list[dict]) -> str:
         + markdown_table(pareto_front(ours), COLUMNS['run'])])
 
 
-def run(results: Path, devices: list[str], settings: Settings, cases=None) -> None:
-    """Measure every case on the grid (only those named in ``cases``, if given); write CSV,
-    markdown and plots; print where they are."""
+def run(results: Path, devices: list[str], settings: Settings, cases=None, executor=None,
+        keys=None) -> None:
+    """Measure every case on the grid (only those named in ``cases``, if given; ``keys``:
+    case keys to measure instead, custom ones included); write CSV, markdown and plots; print
+    where they are. ``executor(function, jobs, progress)`` runs the jobs (default: here, one
+    after the other; ``affine-joint-sim sweep`` passes a process pool or Ray)."""
     from affine_joint_sim.bench import damping
     from affine_joint_sim.bench.analysis import fitted_orders
     from affine_joint_sim.bench.cases import cases as all_cases
     from affine_joint_sim.bench.plots import order_plot, tradeoff_plot
     from affine_joint_sim.bench.report import write_csv
     from affine_joint_sim.bench.tables import order_series_rows
+    from affine_joint_sim.fleet.executors import run_serial
 
     if cases:
         settings = settings._replace(cases=tuple(cases))
-    chosen = [c for c in all_cases() if settings.cases is None or c.name in settings.cases]
-    progress = Progress(len(chosen) * len(_grid(settings, devices)))
+    if keys is None:
+        keys = [c.name for c in all_cases()
+                if settings.cases is None or c.name in settings.cases]
+    jobs = setting_jobs(keys, settings, devices)
+    progress = Progress(len(jobs))
+
+    def tick(row):
+        progress.show(f'{row["scene"]} {row["precision"]} {row["integrator"]} '
+                      f'dt {row["dt"]:g}')
+        progress.advance()
+
+    rows = (executor or run_serial)(sweep_job, jobs, tick)
     all_rows, sections = [], []
-    for case in chosen:
-        truth, rows = measure_case(case, settings, devices, progress)
-        all_rows += rows
-        sections.append(_summary(case.name, truth, rows))
-        tradeoff_plot(results / f'sweep_{case.name}.png', rows,
+    for key in keys:
+        case, truth = case_and_truth(key)
+        case_rows = [row for row, job in zip(rows, jobs) if job['case'] == key]
+        case_rows += mujoco_rows(case, truth, settings)
+        all_rows += case_rows
+        sections.append(_summary(case.name, truth, case_rows))
+        tradeoff_plot(results / f'sweep_{case.name}.png', case_rows,
                       f'{case.name}: error against cost, per knob')
-        series, floor = order_series_rows(rows), fit_floor(truth)
+        series, floor = order_series_rows(case_rows), fit_floor(truth)
         order_plot(results / f'order_{case.name}.png', series, fitted_orders(series, floor),
                    floor, f'{case.name}: convergence in dt')
     write_csv(results / 'sweep.csv', all_rows)
-    sections.append(damping.run(results, settings.dts))
+    if settings.damping:
+        sections.append(damping.run(results, settings.dts))
     text = '# Speed against accuracy\n\n' + '\n\n'.join(sections) + '\n'
     (results / 'sweep.md').write_text(text)
     print(text)
     print(f'sweep results: {results / "sweep.md"}, {results / "sweep.csv"}, '
-          f'{results}/sweep_*.png, {results}/order_*.png, {results / "damping.md"}')
-
+          f'{results}/sweep_*.png, {results}/order_*.png'
+          + (f', {results / "damping.md"}' if settings.damping else ''))
 
 
 def add_parser(sections) -> None:

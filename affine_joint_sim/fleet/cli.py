@@ -11,12 +11,29 @@ from affine_joint_sim.fleet.jobs import replay_job
 from affine_joint_sim.fleet.report import table, write_report
 from affine_joint_sim.progress import Progress
 
-__all__ = ['main', 'workers_for']
+__all__ = ['main', 'workers_for', 'executor_for']
 
 
 def workers_for(requested: int | None, jobs: int) -> int:
     """Processes to use: as asked, else one per CPU; never more than there are jobs."""
     return max(1, min(requested or os.cpu_count() or 1, jobs))
+
+
+def executor_for(workers: int | None, ray: str | None, jobs: int):
+    """(executor(function, jobs, progress) -> results, how it runs, in words): Ray at ``ray``,
+    else ``workers`` processes (default one per CPU), else this process for one."""
+    if ray:
+        return (lambda function, todo, progress: run_ray(function, todo, ray, progress),
+                f'Ray at {ray}')
+    count = workers_for(workers, jobs)
+    if count == 1:
+        return run_serial, 'this process'
+
+    def pool(function, todo, progress):
+        return run_pool(function, todo, count, progress,
+                        lambda message: print(f'\nnote: {message}', file=sys.stderr))
+
+    return pool, f'{count} worker processes'
 
 
 def main(args) -> int:
@@ -32,20 +49,10 @@ def main(args) -> int:
     jobs = [{'bag': str(b), 'tol': args.tol, 'scene': args.scene, 'device': args.device}
             for b in bags]
     bar = Progress(len(jobs))
-
     start = time.perf_counter()
     try:
-        if args.ray:
-            results = run_ray(replay_job, jobs, args.ray, lambda r: _tick(bar, r))
-            how = f'Ray at {args.ray}'
-        elif workers_for(args.workers, len(jobs)) == 1:
-            results = run_serial(replay_job, jobs, lambda r: _tick(bar, r))
-            how = 'this process'
-        else:
-            count = workers_for(args.workers, len(jobs))
-            results = run_pool(replay_job, jobs, count, lambda r: _tick(bar, r),
-                               lambda message: print(f'\nnote: {message}', file=sys.stderr))
-            how = f'{count} worker processes'
+        executor, how = executor_for(args.workers, args.ray, len(jobs))
+        results = executor(replay_job, jobs, lambda r: _tick(bar, r))
     except RuntimeError as exc:
         print(f'affine-joint-sim replay: error: {exc}', file=sys.stderr)
         return 2
