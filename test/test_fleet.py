@@ -183,3 +183,30 @@ def test_a_bad_sweep_spec_is_refused(tmp_path):
         spec.write_text(text)
         done = cli('sweep', spec, '--out', tmp_path / 'out')
         assert done.returncode == 2 and words in done.stderr, done.stderr
+
+
+def test_a_ray_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_path):
+    """Ray retries the task of a worker that died (max_retries): SIGKILL one while it runs a
+    replay job (its process title is then ray::replay_job)."""
+    pytest.importorskip('ray')
+    path = tmp_path / 'ray_killed.json'
+    child = subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'replay', fleet,
+                              '--ray', 'local', '--report', path],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline, victim = time.monotonic() + 120, None
+    while victim is None and time.monotonic() < deadline and child.poll() is None:
+        for entry in Path('/proc').iterdir():
+            try:
+                if entry.name.isdigit() and (entry / 'cmdline').read_bytes().startswith(
+                        b'ray::replay_job'):
+                    victim = int(entry.name)
+                    os.kill(victim, signal.SIGKILL)
+                    break
+            except OSError:
+                continue
+        time.sleep(0.01)
+    out, err = child.communicate(timeout=300)
+    assert victim is not None, 'no Ray worker seen running a job'
+    assert child.returncode == 0, out + err
+    rows = json.loads(path.read_text())['bags']
+    assert len(rows) == len(SAMPLES) + 8 and all(r['status'] == 'pass' for r in rows)

@@ -73,5 +73,6 @@ def main(args) -> int:
 
 
 def _tick(bar: Progress, result: dict) -> None:
-    bar.show(Path(result['bag']).name)
+    bar.failed = getattr(bar, 'failed', 0) + (result['status'] != 'pass')
+    bar.show(f'{bar.failed} not passed; last {Path(result["bag"]).name}')
     bar.advance()
