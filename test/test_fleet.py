@@ -167,11 +167,11 @@ def test_a_parallel_sweep_writes_the_rows_of_a_serial_one(tmp_path, executor):
     serial, _ = sweep_rows(tmp_path, 'serial', '--workers', '1')
     rows, done = sweep_rows(tmp_path, 'parallel', *executor)
     assert [(r['scene'], r['integrator'], float(r['dt'])) for r in rows] == [
-        (scene, integrator, dt) for scene in ('pendulum', 'double_pendulum')
+        (scene, integrator, dt) for scene in ('pendulum', 'double_pendulum[shoulder=1]')
         for integrator in ('bdf1', 'bdf2') for dt in (0.01, 0.005)]
     assert rows == serial                    # every figure but wall time, bit for bit
     assert all(float(r['error_rad']) < 0.05 for r in rows)
-    assert (tmp_path / 'parallel' / 'sweep_double_pendulum.png').exists()
+    assert (tmp_path / 'parallel' / 'sweep_double_pendulum[shoulder=1].png').exists()
 
 
 def test_a_bad_sweep_spec_is_refused(tmp_path):
@@ -210,3 +210,28 @@ def test_a_ray_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_p
     assert child.returncode == 0, out + err
     rows = json.loads(path.read_text())['bags']
     assert len(rows) == len(SAMPLES) + 8 and all(r['status'] == 'pass' for r in rows)
+
+
+def test_command_profiles_run_as_environments_of_one_batched_stepper(tmp_path):
+    """A scene entry's torque profiles are one job per setting (num_envs = profiles); each
+    environment's row equals the row of its profile run alone."""
+    import csv
+
+    def rows(name, torques):
+        spec = tmp_path / f'{name}.yaml'
+        spec.write_text(f'scenes: [{{scene: double_pendulum, torques: {torques}, '
+                        'duration: 0.3}]\ndt: [0.01]\nintegrator: [bdf2]\n')
+        done = cli('sweep', spec, '--out', tmp_path / name, '--workers', 1)
+        assert done.returncode == 0, done.stderr
+        with (tmp_path / name / 'sweep.csv').open() as stream:
+            return {r['scene']: r for r in csv.DictReader(stream)}
+
+    batched = rows('batched', '[{shoulder: 1.0}, {shoulder: -0.5}]')
+    assert {r['envs'] for r in batched.values()} == {'2'}
+    for profile, name in (('{shoulder: 1.0}', 'double_pendulum[shoulder=1]'),
+                          ('{shoulder: -0.5}', 'double_pendulum[shoulder=-0.5]')):
+        alone = rows(name.replace('[', '_').replace(']', '').replace('=', '_'), profile)[name]
+        assert alone['envs'] == '1'
+        for column in ('error_rad', 'newton_iterations', 'joint_gap_m', 'energy_drift_j',
+                       'converged_pct', 'rejected_steps'):
+            assert batched[name][column] == alone[column], column

@@ -327,6 +327,9 @@ def test_lockstep_closed_loop_is_bit_identical(sim, ros_node, wait_for):
     (['--command-joints', 'shoulder,knee'], "parameter 'command_joints': knee is not a moving "
                                             'joint of the scene (valid, once each: shoulder)'),
     (['--lockstep-publishers', '0'], "parameter 'lockstep_publishers': 0 is out of range"),
+    (['--viz-rate', '-1'], "parameter 'viz_rate': -1.0 is out of range"),
+    (['--frame-id', 'my frame'], "parameter 'frame_id': 'my frame' is not a frame name"),
+    (['--scene', 'broken.urdf'], "parameter 'scene': scene 'broken.urdf' is neither"),
     (['--ros-args', '--params-file', '/missing.yaml'], "Couldn't parse params file"),
     (['--ros-args', '--no-such-ros-argument'], 'unknown ROS arguments'),
 ])

@@ -77,15 +77,18 @@ def cases() -> list[Case]:
 
 def custom_case(scene: str, torques: tuple, duration: float) -> Case:
     """A case of any scene file (YAML or URDF) or packaged scene under constant ``torques``
-    ((joint, N·m) pairs) for ``duration`` [s]; its truth is the rigid tree (revolute joints,
-    every body on a path from a fixed one, starting at rest)."""
+    ((joint, N·m) pairs) for ``duration`` [s], named ``scene[joint=τ,...]``; its truth is the
+    rigid tree (revolute joints, every body on a path from a fixed one, starting at rest)."""
     path = scene_path(scene)
     loaded = Scene.load(path)
     other = [f'{j.name} ({j.type})' for j in loaded.joints if j.type != 'revolute']
     if other:
         raise ValueError(f'scene {scene!r}: the rigid reference takes revolute joints only, '
                          f'not {", ".join(other)}')
-    return Case(Path(scene).stem, loaded, dict(torques), duration,
+    name = Path(scene).stem + (
+        '[' + ','.join(f'{joint}={value:g}' for joint, value in torques) + ']' if torques
+        else '')
+    return Case(name, loaded, dict(torques), duration,
                 urdf=path if path.suffix.lower() == '.urdf' else None)
 
 

@@ -8,7 +8,8 @@ read in between), ``ms_per_sim_s`` (the same per simulated second), ``newton_ite
 the work Σ τ Δθ of the torques: zero for an exact integrator, negative when it dissipates) and
 ``energy_drift_rel`` (that over the reference's largest kinetic energy), ``converged_pct``
 and ``rejected_steps`` (the stepper's SimulationWarnings are silenced: these columns hold
-them). MuJoCo rows carry the knobs they have and leave the rest empty.
+them), ``envs`` (cases run together as one batched stepper's environments; µs/step is per
+environment). MuJoCo rows carry the knobs they have and leave the rest empty.
 """
 
 import warnings
@@ -18,7 +19,7 @@ import numpy as np
 from affine_joint_sim.bench.cases import Case, Reference, with_settings
 from affine_joint_sim.bench.timing import median_us
 
-__all__ = ['MIN_TIMED_STEPS', 'angle_error', 'run_mujoco', 'run_stepper']
+__all__ = ['MIN_TIMED_STEPS', 'angle_error', 'run_mujoco', 'run_stepper', 'run_stepper_batch']
 
 MIN_TIMED_STEPS = 2000   # short runs are timed more often, so that every median spans as many
 
@@ -36,48 +37,67 @@ def _repeats(repeats: int, steps: int) -> int:
 def run_stepper(case: Case, reference: Reference, *, dt: float, integrator: str,
                 newton_tol: float, precision: str, device: str, repeats: int) -> dict:
     """Simulate ``case`` with the stepper at one setting; time it and measure it."""
+    return run_stepper_batch([case], [reference], dt=dt, integrator=integrator,
+                             newton_tol=newton_tol, precision=precision, device=device,
+                             repeats=repeats)[0]
+
+
+def run_stepper_batch(cases: list[Case], references: list[Reference], *, dt: float,
+                      integrator: str, newton_tol: float, precision: str, device: str,
+                      repeats: int) -> list[dict]:
+    """Cases that differ only in their torques, as the environments of one batched stepper
+    at one setting: a row per case. ``us_per_step`` is the batch's step time divided by the
+    number of environments (column ``envs``)."""
     from affine_joint_sim.stepper import SimulationWarning, Stepper
 
+    if len({(c.scene.model_dump_json(), c.duration) for c in cases}) != 1:
+        raise ValueError('a batch shares its scene and duration; only torques may differ')
     with warnings.catch_warnings():
         warnings.simplefilter('ignore', SimulationWarning)
-        return _run_stepper(Stepper(with_settings(case.scene, dt, integrator, newton_tol,
-                                                  precision), device=device),
-                            case, reference, repeats)
+        sim = Stepper(with_settings(cases[0].scene, dt, integrator, newton_tol, precision),
+                      device=device, num_envs=len(cases))
+        return _run_stepper(sim, cases, references, repeats)
 
 
-def _run_stepper(sim, case: Case, reference: Reference, repeats: int) -> dict:
-    dt, solver = sim.dt, sim.scene.solver
-    steps = round(case.duration / dt)
+def _run_stepper(sim, cases: list[Case], references: list[Reference], repeats: int) -> list:
+    dt, solver, envs = sim.dt, sim.scene.solver, len(cases)
+    steps = round(cases[0].duration / dt)
+    torque = np.array([case.torque_vector() for case in cases])        # (envs, joints)
+    commanded = [k for k in range(torque.shape[1]) if torque[:, k].any()]
 
     def start():
         sim.reset()
-        for name, torque in case.torques.items():
-            sim.set_torque(name, torque)
+        for k in commanded:
+            sim.set_torque(sim.joint_names[k], torque[:, k])
 
-    us_per_step = median_us(sim.step, steps, _repeats(repeats, steps), setup=start)
+    us_per_step = median_us(sim.step, steps, _repeats(repeats, steps), setup=start) / envs
     start()
-    sample_at = {round(t / dt) for t in case.times}
-    torque = case.torque_vector()
-    energy0, turned = sim.energy, np.zeros(len(torque))
-    angles, iterations, gap, converged, rejected = [], 0, 0.0, 0, 0
+    sample_at = {round(t / dt) for t in cases[0].times}
+    energy0, turned = sim.energy, np.zeros(torque.shape)
+    angles, iterations, gap = [], np.zeros(envs), np.zeros(envs)
+    converged, rejected = np.zeros(envs, dtype=int), np.zeros(envs, dtype=int)
     for n in range(1, steps + 1):
         sim.step()
         stats = sim.stats
-        iterations += int(stats['newton_iterations'])
-        gap = max(gap, float(stats['joint_gap']))
-        converged += bool(stats['converged'])
-        rejected += bool(stats['step_rejected'])
+        iterations += stats['newton_iterations']
+        gap = np.maximum(gap, stats['joint_gap'])
+        converged += stats['converged']
+        rejected += stats['step_rejected']
         turned += sim.velocities * dt                  # Δθ of the multi-turn angle
         if n in sample_at:
             angles.append(sim.angles)
-    drift = sim.energy - energy0 - float(torque @ turned)
-    return {'scene': case.name, 'device': str(sim.device), 'integrator': solver.integrator,
-            'dt': dt, 'newton_tol': solver.newton_tol, 'precision': solver.precision,
-            'error_rad': angle_error(angles, reference.angles), 'us_per_step': us_per_step,
-            'ms_per_sim_s': us_per_step / dt / 1e3, 'newton_iterations': iterations / steps,
-            'joint_gap_m': gap, 'energy_drift_j': drift,
-            'energy_drift_rel': drift / reference.energy_scale,
-            'converged_pct': 100.0 * converged / steps, 'rejected_steps': rejected}
+    drift = sim.energy - energy0 - np.sum(torque * turned, axis=1)
+    return [{'scene': case.name, 'device': str(sim.device), 'integrator': solver.integrator,
+             'dt': dt, 'newton_tol': solver.newton_tol, 'precision': solver.precision,
+             'envs': envs, 'error_rad': angle_error([a[e] for a in angles], reference.angles),
+             'us_per_step': us_per_step, 'ms_per_sim_s': us_per_step / dt / 1e3,
+             'newton_iterations': float(iterations[e]) / steps, 'joint_gap_m': float(gap[e]),
+             'energy_drift_j': float(drift[e]),
+             'energy_drift_rel': (float(drift[e]) / reference.energy_scale
+                                  if reference.energy_scale > 0.0 else float('nan')),
+             'converged_pct': 100.0 * float(converged[e]) / steps,
+             'rejected_steps': int(rejected[e])}
+            for e, (case, reference) in enumerate(zip(cases, references))]
 
 
 def run_mujoco(case: Case, reference: Reference, *, dt: float, integrator: str,
@@ -110,7 +130,7 @@ def run_mujoco(case: Case, reference: Reference, *, dt: float, integrator: str,
         if n in sample_at:
             angles.append(data.qpos.copy())
     return {'scene': case.name, 'device': 'cpu', 'integrator': f'mujoco_{integrator.lower()}',
-            'dt': dt, 'newton_tol': None, 'precision': 'float64',
+            'dt': dt, 'newton_tol': None, 'precision': 'float64', 'envs': 1,
             'error_rad': angle_error(angles, reference.angles), 'us_per_step': us_per_step,
             'ms_per_sim_s': us_per_step / dt / 1e3, 'newton_iterations': None,
             'joint_gap_m': None, 'energy_drift_j': None, 'energy_drift_rel': None,

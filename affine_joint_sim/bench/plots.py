@@ -24,7 +24,7 @@ def tradeoff_plot(path: Path, rows: list[dict], title: str) -> None:
 
     ours = [row for row in rows if row['integrator'] not in MUJOCO_MARKERS]
     theirs = [row for row in rows if row['integrator'] in MUJOCO_MARKERS]
-    knobs = [k for k in KNOBS if len({row[k] for row in ours}) > 1]
+    knobs = [k for k in KNOBS if len({row[k] for row in ours}) > 1] or ['dt']   # one panel
     front = pareto_front(ours)
     fig, axes = plt.subplots(1, len(knobs), figsize=(4.2 * len(knobs), 4.2), sharey=True,
                              squeeze=False)

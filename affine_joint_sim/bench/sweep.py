@@ -12,6 +12,7 @@ damping (``bench.damping``).
 
 import functools
 import itertools
+import sys
 from pathlib import Path
 from typing import NamedTuple
 
@@ -43,18 +44,19 @@ def _grid(settings: Settings, devices: list[str]):
                                   settings.tolerances, settings.dts))
 
 
-def setting_jobs(case_keys: list, settings: Settings, devices: list[str]) -> list[dict]:
-    """One job per case and setting of the grid (``sweep_job``'s arguments)."""
-    return [dict(case=key, device=device, precision=precision, integrator=integrator,
-                 newton_tol=tol, dt=dt, repeats=settings.repeats)
-            for key in case_keys
+def setting_jobs(batches: list, settings: Settings, devices: list[str]) -> list[dict]:
+    """One job per batch of cases (cases that differ only in their torques run as one batched
+    stepper's environments) and setting of the grid: ``sweep_job``'s arguments."""
+    return [dict(cases=list(batch), device=device, precision=precision,
+                 integrator=integrator, newton_tol=tol, dt=dt, repeats=settings.repeats)
+            for batch in batches
             for device, precision, integrator, tol, dt in _grid(settings, devices)]
 
 
 @functools.lru_cache(maxsize=None)
 def case_and_truth(key):
-    """The case a key names (a bench case's name, or ``sweep_spec.custom_key``'s tuple) and its
-    reference, computed once per process."""
+    """The case a key names (a bench case's name, or a (scene, torques, duration) tuple of
+    ``bench.cases.custom_case``) and its reference, computed once per process."""
     from affine_joint_sim.bench.cases import cases, custom_case, reference
 
     case = (next(c for c in cases() if c.name == key) if isinstance(key, str) else
@@ -62,14 +64,15 @@ def case_and_truth(key):
     return case, reference(case)
 
 
-def sweep_job(case, device: str, precision: str, integrator: str, newton_tol: float,
-              dt: float, repeats: int) -> dict:
-    """One row of the sweep: the stepper on one case at one setting, against its truth."""
-    from affine_joint_sim.bench.measure import run_stepper
+def sweep_job(cases: list, device: str, precision: str, integrator: str, newton_tol: float,
+              dt: float, repeats: int) -> list[dict]:
+    """The rows of one batch of cases at one setting, each against its truth."""
+    from affine_joint_sim.bench.measure import run_stepper_batch
 
-    found, truth = case_and_truth(case)
-    return run_stepper(found, truth, dt=dt, integrator=integrator, newton_tol=newton_tol,
-                       precision=precision, device=device, repeats=repeats)
+    found = [case_and_truth(key) for key in cases]
+    return run_stepper_batch([c for c, _ in found], [t for _, t in found], dt=dt,
+                             integrator=integrator, newton_tol=newton_tol,
+                             precision=precision, device=device, repeats=repeats)
 
 
 def mujoco_rows(case, truth, settings: Settings) -> list[dict]:
@@ -114,11 +117,12 @@ def _summary(case_name: str, truth, rows: list[dict]) -> str:
 
 
 def run(results: Path, devices: list[str], settings: Settings, cases=None, executor=None,
-        keys=None) -> None:
-    """Measure every case on the grid (only those named in ``cases``, if given; ``keys``:
-    case keys to measure instead, custom ones included); write CSV, markdown and plots; print
-    where they are. ``executor(function, jobs, progress)`` runs the jobs (default: here, one
-    after the other; ``affine-joint-sim sweep`` passes a process pool or Ray)."""
+        batches=None) -> None:
+    """Measure every case on the grid (only those named in ``cases``, if given; ``batches``:
+    lists of case keys to measure instead, each list run as one batched stepper); write CSV,
+    markdown and plots; print where they are. ``executor(function, jobs, progress)`` runs the
+    jobs (default: here, one after the other; ``affine-joint-sim sweep`` passes a process pool
+    or Ray)."""
     from affine_joint_sim.bench import damping
     from affine_joint_sim.bench.analysis import fitted_orders
     from affine_joint_sim.bench.cases import cases as all_cases
@@ -129,22 +133,30 @@ def run(results: Path, devices: list[str], settings: Settings, cases=None, execu
 
     if cases:
         settings = settings._replace(cases=tuple(cases))
-    if keys is None:
-        keys = [c.name for c in all_cases()
-                if settings.cases is None or c.name in settings.cases]
-    jobs = setting_jobs(keys, settings, devices)
+    if batches is None:
+        batches = [[c.name] for c in all_cases()
+                   if settings.cases is None or c.name in settings.cases]
+    jobs = setting_jobs(batches, settings, devices)
     progress = Progress(len(jobs))
 
-    def tick(row):
-        progress.show(f'{row["scene"]} {row["precision"]} {row["integrator"]} '
-                      f'dt {row["dt"]:g}')
+    def tick(rows):
+        row = rows if isinstance(rows, dict) else rows[0]     # a lost job: its error
+        progress.show(row.get('error') or f'{row["scene"]} {row["precision"]} '
+                      f'{row["integrator"]} dt {row["dt"]:g}')
         progress.advance()
 
-    rows = (executor or run_serial)(sweep_job, jobs, tick)
+    results_of_jobs = (executor or run_serial)(sweep_job, jobs, tick)
+    rows_of = {}
+    for job, rows in zip(jobs, results_of_jobs):
+        if isinstance(rows, dict):            # a job lost by its executor: said, skipped
+            print(f'sweep: no result for {rows["bag"]}: {rows["error"]}', file=sys.stderr)
+            continue
+        for key, row in zip(job['cases'], rows):
+            rows_of.setdefault(key, []).append(row)
     all_rows, sections = [], []
-    for key in keys:
+    for key in (key for batch in batches for key in batch if key in rows_of):
         case, truth = case_and_truth(key)
-        case_rows = [row for row, job in zip(rows, jobs) if job['case'] == key]
+        case_rows = list(rows_of[key])
         case_rows += mujoco_rows(case, truth, settings)
         all_rows += case_rows
         sections.append(_summary(case.name, truth, case_rows))

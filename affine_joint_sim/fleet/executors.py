@@ -18,7 +18,9 @@ RAY_HINT = "Ray is not installed: pip install -e '.[cluster]' (or use --workers 
 
 
 def _lost(job, why: str) -> dict:
-    return {'bag': str(job['bag']), 'status': 'error', 'states': 0,
+    """The result of a job that produced none: status 'error' and why (``bag`` names the job:
+    its bag, or its arguments)."""
+    return {'bag': str(job.get('bag', job)), 'status': 'error', 'states': 0,
             'max_angle': float('nan'), 'max_velocity': float('nan'), 'worst': float('nan'),
             'seconds': 0.0, 'error': why}
 

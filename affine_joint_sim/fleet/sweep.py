@@ -6,6 +6,7 @@ The spec (YAML, every key optional but one case)::
     cases: [pendulum, arm6]          # cases of `bench sweep` (bench.cases) by name
     scenes:                          # any scene or URDF under constant torques [N·m]
       - {scene: my_robot.urdf, torques: {elbow: 0.5}, duration: 0.5}
+      - {scene: arm, torques: [{yaw: 0.1}, {yaw: 0.3}, {yaw: 1.0}]}   # command profiles
     dt: [0.01, 0.005]                # s
     integrator: [bdf1, bdf2]
     newton_tol: [1.0e-4]
@@ -14,7 +15,9 @@ The spec (YAML, every key optional but one case)::
     repeats: 1                       # timed runs per setting (median)
 
 It writes what ``bench sweep`` writes (sweep.csv, sweep.md, the Pareto and order plots) into
---out, through the same code (``bench.sweep.run``), without the wheel's damping section.
+--out, through the same code (``bench.sweep.run``), without the wheel's damping section. The
+command profiles of one scene entry are one job per setting: the environments of one batched
+stepper (``num_envs``), each compared with its own reference.
 """
 
 import sys
@@ -33,8 +36,11 @@ PositiveList = Annotated[list[Annotated[Number, Field(gt=0.0)]], Field(min_lengt
 
 class SpecScene(_Strict):
     scene: str
-    torques: dict[str, Number] = {}
+    torques: dict[str, Number] | Annotated[list[dict[str, Number]], Field(min_length=1)] = {}
     duration: Annotated[Number, Field(gt=0.0)] = 0.5
+
+    def profiles(self) -> list[dict]:
+        return self.torques if isinstance(self.torques, list) else [self.torques]
 
 
 class SweepSpec(_Strict):
@@ -50,10 +56,12 @@ class SweepSpec(_Strict):
     device: Annotated[list[str], Field(min_length=1)] = ['cpu']
     repeats: Annotated[int, Field(ge=1, le=100)] = 1
 
-    def keys(self) -> list:
-        """The case keys of ``bench.sweep.case_and_truth``."""
-        return list(self.cases) + [(s.scene, tuple(sorted(s.torques.items())), s.duration)
-                                   for s in self.scenes]
+    def batches(self) -> list[list]:
+        """Case keys of ``bench.sweep.case_and_truth``, grouped into batches: a named case
+        alone, a scene entry's command profiles together."""
+        return [[name] for name in self.cases] + [
+            [(s.scene, tuple(sorted(p.items())), s.duration) for p in s.profiles()]
+            for s in self.scenes]
 
 
 def load_spec(path: Path) -> SweepSpec:
@@ -74,7 +82,7 @@ def load_spec(path: Path) -> SweepSpec:
     if unknown:
         raise ValueError(f'{path}: cases {unknown} are not sweep cases ({", ".join(known)}); '
                          'put other scenes under scenes:')
-    if not spec.keys():
+    if not spec.batches():
         raise ValueError(f'{path}: give at least one entry in cases: or scenes:')
     return spec
 
@@ -86,13 +94,14 @@ def main(args) -> int:
 
     try:
         spec = load_spec(Path(args.spec))
-        for key in spec.keys():              # every case and its truth, before any job runs
-            case_and_truth(key)
+        for batch in spec.batches():         # every case and its truth, before any job runs
+            for key in batch:
+                case_and_truth(key)
     except Exception as exc:                 # a spec, scene or reference that cannot be used
         print(f'affine-joint-sim sweep: error: {str(exc).strip()}', file=sys.stderr)
         return 2
     try:
-        executor, how = executor_for(args.workers, args.ray, len(spec.keys()) * len(
+        executor, how = executor_for(args.workers, args.ray, len(spec.batches()) * len(
             spec.dt) * len(spec.integrator) * len(spec.newton_tol) * len(spec.precision)
             * len(spec.device))
     except RuntimeError as exc:
@@ -101,6 +110,6 @@ def main(args) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     settings = Settings(tuple(spec.dt), tuple(spec.integrator), tuple(spec.newton_tol),
                         tuple(spec.precision), None, spec.repeats, damping=False)
-    run(args.out, spec.device, settings, executor=executor, keys=spec.keys())
+    run(args.out, spec.device, settings, executor=executor, batches=spec.batches())
     print(f'ran on {how}')
     return 0

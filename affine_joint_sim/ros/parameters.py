@@ -82,6 +82,9 @@ def check(name: str, value):
     if spec.choices is not None and value not in spec.choices:
         raise ConfigError(f'parameter {name!r}: {value!r} is not one of '
                           f'{", ".join(spec.choices)}')
+    if name == 'frame_id' and (not value or any(c.isspace() for c in value)):
+        raise ConfigError(f'parameter {name!r}: {value!r} is not a frame name (non-empty, no '
+                          'whitespace)')
     if spec.minimum is not None:
         low = spec.minimum
         if not math.isfinite(value) or value < low or (spec.exclusive and value == low):
