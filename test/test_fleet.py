@@ -74,39 +74,44 @@ def test_a_diverging_bag_fails_the_run(fleet, tmp_path):
     assert [r['status'] for r in rows] == ['fail', 'fail'] and rows[0]['worst'] > 1e-3
 
 
-def _workers(parent: int) -> list[int]:
-    """Pids of the multiprocessing workers (spawned children) of process ``parent``."""
-    found = []
+def _processes():
+    """(pid, parent pid, command line bytes) of every process that can be read."""
     for entry in Path('/proc').iterdir():
         if not entry.name.isdigit():
             continue
         try:
             ppid = int((entry / 'stat').read_text().rsplit(')', 1)[1].split()[1])
-            command = (entry / 'cmdline').read_bytes()
+            yield int(entry.name), ppid, (entry / 'cmdline').read_bytes()
         except (OSError, IndexError, ValueError):
             continue
-        if ppid == parent and b'spawn_main' in command:
-            found.append(int(entry.name))
-    return found
 
 
-def test_a_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_path):
+def replay_killing_a_worker(tmp_path, executor: list, is_worker) -> list[dict]:
+    """Run ``replay`` on the fleet with ``executor`` flags, SIGKILL the first process for which
+    ``is_worker(pid, ppid, cmdline, cli_pid)`` holds while it runs; return the report's rows."""
     path = tmp_path / 'killed.json'
-    child = subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'replay', fleet,
-                              '--workers', '2', '--report', path],
+    child = subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'replay',
+                              *executor, '--report', path],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline, victim = time.monotonic() + 60, None
+    deadline, victim = time.monotonic() + 120, None
     while victim is None and time.monotonic() < deadline and child.poll() is None:
-        workers = _workers(child.pid)
-        if len(workers) == 2:                    # starting up or inside its first jobs
-            victim = workers[0]
+        victim = next((pid for pid, ppid, command in _processes()
+                       if is_worker(pid, ppid, command, child.pid)), None)
+        if victim is not None:
             os.kill(victim, signal.SIGKILL)
-        time.sleep(0.02)
+        time.sleep(0.01)
     out, err = child.communicate(timeout=300)
     assert victim is not None, 'no worker to kill'
     assert child.returncode == 0, out + err
+    return json.loads(path.read_text())['bags'], err
+
+
+def test_a_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_path):
+    # a spawned worker of the command, starting up or inside its first jobs
+    rows, err = replay_killing_a_worker(
+        tmp_path, [fleet, '--workers', '2'],
+        lambda pid, ppid, command, cli_pid: ppid == cli_pid and b'spawn_main' in command)
     assert 'a worker process died' in err
-    rows = json.loads(path.read_text())['bags']
     assert len(rows) == len(SAMPLES) + 8 and all(r['status'] == 'pass' for r in rows)
 
 
@@ -189,26 +194,9 @@ def test_a_ray_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_p
     """Ray retries the task of a worker that died (max_retries): SIGKILL one while it runs a
     replay job (its process title is then ray::replay_job)."""
     pytest.importorskip('ray')
-    path = tmp_path / 'ray_killed.json'
-    child = subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'replay', fleet,
-                              '--ray', 'local', '--report', path],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline, victim = time.monotonic() + 120, None
-    while victim is None and time.monotonic() < deadline and child.poll() is None:
-        for entry in Path('/proc').iterdir():
-            try:
-                if entry.name.isdigit() and (entry / 'cmdline').read_bytes().startswith(
-                        b'ray::replay_job'):
-                    victim = int(entry.name)
-                    os.kill(victim, signal.SIGKILL)
-                    break
-            except OSError:
-                continue
-        time.sleep(0.01)
-    out, err = child.communicate(timeout=300)
-    assert victim is not None, 'no Ray worker seen running a job'
-    assert child.returncode == 0, out + err
-    rows = json.loads(path.read_text())['bags']
+    rows, _ = replay_killing_a_worker(
+        tmp_path, [fleet, '--ray', 'local'],
+        lambda pid, ppid, command, cli_pid: command.startswith(b'ray::replay_job'))
     assert len(rows) == len(SAMPLES) + 8 and all(r['status'] == 'pass' for r in rows)
 
 
