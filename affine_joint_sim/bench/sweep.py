@@ -129,7 +129,7 @@ def run(results: Path, devices: list[str], settings: Settings, cases=None, execu
     from affine_joint_sim.bench.plots import order_plot, tradeoff_plot
     from affine_joint_sim.bench.report import write_csv
     from affine_joint_sim.bench.tables import order_series_rows
-    from affine_joint_sim.fleet.executors import run_serial
+    from affine_joint_sim.fleet.executors import LostJob, run_serial
 
     if cases:
         settings = settings._replace(cases=tuple(cases))
@@ -140,16 +140,16 @@ def run(results: Path, devices: list[str], settings: Settings, cases=None, execu
     progress = Progress(len(jobs))
 
     def tick(rows):
-        row = rows if isinstance(rows, dict) else rows[0]     # a lost job: its error
-        progress.show(row.get('error') or f'{row["scene"]} {row["precision"]} '
-                      f'{row["integrator"]} dt {row["dt"]:g}')
+        progress.show(rows.why if isinstance(rows, LostJob) else
+                      f'{rows[0]["scene"]} {rows[0]["precision"]} {rows[0]["integrator"]} '
+                      f'dt {rows[0]["dt"]:g}')
         progress.advance()
 
     results_of_jobs = (executor or run_serial)(sweep_job, jobs, tick)
     rows_of = {}
     for job, rows in zip(jobs, results_of_jobs):
-        if isinstance(rows, dict):            # a job lost by its executor: said, skipped
-            print(f'sweep: no result for {rows["bag"]}: {rows["error"]}', file=sys.stderr)
+        if isinstance(rows, LostJob):         # said, skipped
+            print(f'sweep: no result for {job}: {rows.why}', file=sys.stderr)
             continue
         for key, row in zip(job['cases'], rows):
             rows_of.setdefault(key, []).append(row)

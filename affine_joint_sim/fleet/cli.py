@@ -6,8 +6,8 @@ import time
 from pathlib import Path
 
 from affine_joint_sim.fleet.bags import expand_bags
-from affine_joint_sim.fleet.executors import run_pool, run_ray, run_serial
-from affine_joint_sim.fleet.jobs import replay_job
+from affine_joint_sim.fleet.executors import LostJob, run_pool, run_ray, run_serial
+from affine_joint_sim.fleet.jobs import failed_result, replay_job
 from affine_joint_sim.fleet.report import table, write_report
 from affine_joint_sim.progress import Progress
 
@@ -48,18 +48,23 @@ def main(args) -> int:
     bags, problems = expand_bags([str(b) for b in args.bag])
     jobs = [{'bag': str(b), 'tol': args.tol, 'scene': args.scene, 'device': args.device}
             for b in bags]
-    bar = Progress(len(jobs))
+    bar, not_passed = Progress(len(jobs)), [0]
+
+    def tick(result):
+        result = _as_result(result)
+        not_passed[0] += result['status'] != 'pass'
+        bar.show(f'{not_passed[0]} not passed; last {Path(result["bag"]).name}')
+        bar.advance()
+
     start = time.perf_counter()
     try:
         executor, how = executor_for(args.workers, args.ray, len(jobs))
-        results = executor(replay_job, jobs, lambda r: _tick(bar, r))
+        results = [_as_result(r) for r in executor(replay_job, jobs, tick)]
     except RuntimeError as exc:
         print(f'affine-joint-sim replay: error: {exc}', file=sys.stderr)
         return 2
     wall = time.perf_counter() - start
-    results += [{'bag': arg, 'status': 'error', 'states': 0, 'max_angle': float('nan'),
-                 'max_velocity': float('nan'), 'worst': float('nan'), 'seconds': 0.0,
-                 'error': why} for arg, why in problems]
+    results += [failed_result(arg, why) for arg, why in problems]
     counts = {s: sum(r['status'] == s for r in results) for s in ('pass', 'fail', 'error')}
     print(table(results))
     print(f'{len(results)} bags on {how} in {wall:.1f} s (sum of job times '
@@ -72,7 +77,7 @@ def main(args) -> int:
     return 2 if counts['error'] else 1 if counts['fail'] else 0
 
 
-def _tick(bar: Progress, result: dict) -> None:
-    bar.failed = getattr(bar, 'failed', 0) + (result['status'] != 'pass')
-    bar.show(f'{bar.failed} not passed; last {Path(result["bag"]).name}')
-    bar.advance()
+def _as_result(result) -> dict:
+    """A replay result; a job its executor lost is its bag's error."""
+    return failed_result(result.job['bag'], result.why) if isinstance(result, LostJob) \
+        else result

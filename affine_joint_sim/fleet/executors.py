@@ -3,29 +3,30 @@
 Every executor returns the results in the order of the jobs, whatever order they finish in, so
 a report does not depend on the executor. A worker process that dies (killed, out of memory)
 loses only its jobs: they are run again, up to ``RETRIES`` more times, on fresh workers (the
-process pool) or by Ray's own task retries; a job still without a result is reported as an
-error naming what happened, and the other jobs complete.
+process pool) or by Ray's own task retries; a job still without a result is a ``LostJob``
+naming what happened, and the other jobs complete.
 """
 
 import multiprocessing
+from dataclasses import dataclass
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
-__all__ = ['run_serial', 'run_pool', 'run_ray', 'RETRIES', 'RAY_HINT']
+__all__ = ['run_serial', 'run_pool', 'run_ray', 'LostJob', 'RETRIES', 'RAY_HINT']
 
 RETRIES = 2
 RAY_HINT = "Ray is not installed: pip install -e '.[cluster]' (or use --workers N)"
 
 
-def _lost(job, why: str) -> dict:
-    """The result of a job that produced none: status 'error' and why (``bag`` names the job:
-    its bag, or its arguments)."""
-    return {'bag': str(job.get('bag', job)), 'status': 'error', 'states': 0,
-            'max_angle': float('nan'), 'max_velocity': float('nan'), 'worst': float('nan'),
-            'seconds': 0.0, 'error': why}
+@dataclass(frozen=True)
+class LostJob:
+    """In place of the result of a job that produced none: its arguments and why."""
+
+    job: dict
+    why: str
 
 
-def run_serial(function, jobs: list[dict], progress=None) -> list[dict]:
+def run_serial(function, jobs: list[dict], progress=None) -> list:
     """Each job in turn, here."""
     results = []
     for job in jobs:
@@ -35,7 +36,7 @@ def run_serial(function, jobs: list[dict], progress=None) -> list[dict]:
     return results
 
 
-def run_pool(function, jobs: list[dict], workers: int, progress=None, say=print) -> list[dict]:
+def run_pool(function, jobs: list[dict], workers: int, progress=None, say=print) -> list:
     """The jobs on ``workers`` spawned processes; jobs of a worker that died run again (and
     ``say`` is told so)."""
     results = [None] * len(jobs)
@@ -56,7 +57,7 @@ def run_pool(function, jobs: list[dict], workers: int, progress=None, say=print)
                     broken.append(i)
                     continue
                 except Exception as exc:        # the job raised: reported, the rest goes on
-                    results[i] = _lost(jobs[i], f'{type(exc).__name__}: {exc}')
+                    results[i] = LostJob(jobs[i], f'{type(exc).__name__}: {exc}')
                 if progress:
                     progress(results[i])
         pending = []
@@ -64,7 +65,7 @@ def run_pool(function, jobs: list[dict], workers: int, progress=None, say=print)
             if attempts[i] <= RETRIES:
                 pending.append(i)
             else:
-                results[i] = _lost(jobs[i], f'its worker process died {attempts[i]} times')
+                results[i] = LostJob(jobs[i], f'its worker process died {attempts[i]} times')
                 if progress:
                     progress(results[i])
         if pending:
@@ -73,7 +74,7 @@ def run_pool(function, jobs: list[dict], workers: int, progress=None, say=print)
     return results
 
 
-def run_ray(function, jobs: list[dict], address: str, progress=None) -> list[dict]:
+def run_ray(function, jobs: list[dict], address: str, progress=None) -> list:
     """The jobs as Ray tasks on the cluster at ``address`` ('local': a Ray started here for
     this run; 'auto': the one ``ray start`` runs on this machine), retried by Ray when a worker
     dies."""
@@ -96,7 +97,7 @@ def run_ray(function, jobs: list[dict], address: str, progress=None) -> list[dic
                 results[i] = ray.get(done[0])
             except Exception as exc:          # Ray's own: a task or its workers failed
                 first_line = str(exc).splitlines()[0] if str(exc) else ''
-                results[i] = _lost(jobs[i], f'{type(exc).__name__}: {first_line}')
+                results[i] = LostJob(jobs[i], f'{type(exc).__name__}: {first_line}')
             if progress:
                 progress(results[i])
         return results

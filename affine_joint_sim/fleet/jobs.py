@@ -4,10 +4,16 @@ its result's error."""
 
 import time
 
-__all__ = ['replay_job', 'STATUS']
+__all__ = ['replay_job', 'failed_result', 'STATUS']
 
 # pass: within tol; fail: diverged beyond it; error: the bag could not be read or replayed
 STATUS = ('pass', 'fail', 'error')
+
+
+def failed_result(bag, why: str) -> dict:
+    """The result of a bag that could not be replayed: status 'error' and why."""
+    return {'bag': str(bag), 'status': 'error', 'states': 0, 'max_angle': float('nan'),
+            'max_velocity': float('nan'), 'worst': float('nan'), 'seconds': 0.0, 'error': why}
 
 
 def replay_job(bag: str, tol: float, scene: str | None = None, device: str = 'cpu') -> dict:
@@ -25,8 +31,7 @@ def replay_job(bag: str, tol: float, scene: str | None = None, device: str = 'cp
     wp.config.log_level = wp.LOG_WARNING
     wp.config.quiet = True
     start = time.perf_counter()
-    result = {'bag': str(bag), 'status': 'error', 'states': 0, 'max_angle': float('nan'),
-              'max_velocity': float('nan'), 'worst': float('nan'), 'seconds': 0.0, 'error': ''}
+    result = failed_result(bag, '')
     try:
         divergence = replay(read_bag(bag), scene, device)
     except (ReplayError, SceneError, OSError) as exc:

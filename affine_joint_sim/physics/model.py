@@ -17,7 +17,7 @@ from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import body_mass_properties
 
 __all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'direction_jacobian',
-           'linear_pairs', 'rotation_matrix', 'largest_step_efforts']
+           'linear_pairs', 'rotation_matrix', 'quaternion_matrix', 'largest_step_efforts']
 
 
 class SimulationWarning(UserWarning):
@@ -61,7 +61,12 @@ def rotation_matrix(orientation) -> np.ndarray:
         ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
         rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
         return rz @ ry @ rx
-    x, y, z, w = np.asarray(orientation.quat_xyzw) / np.linalg.norm(orientation.quat_xyzw)
+    return quaternion_matrix(*orientation.quat_xyzw)
+
+
+def quaternion_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
+    """Rotation matrix of the quaternion (x, y, z, w), normalised first."""
+    x, y, z, w = np.array([x, y, z, w]) / np.linalg.norm([x, y, z, w])
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],

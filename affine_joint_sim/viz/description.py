@@ -61,6 +61,7 @@ class _Generator:
         self.rot = [rotation_matrix(b.orientation) for b in scene.bodies]
         self.com = [np.asarray(b.position, dtype=float) for b in scene.bodies]
         self.frame = {}          # body index -> its link frame at t = 0 (4×4, world)
+        self.shapes = drawables(scene)
         self.lines = []
 
     def _pose(self, body: int, point) -> np.ndarray:
@@ -176,9 +177,7 @@ class _Generator:
                       f'      <mass value="{props.mass:.12g}"/>',
                       f'      <inertia ixx="{i[0, 0]:.12g}" ixy="0" ixz="0" '
                       f'iyy="{i[1, 1]:.12g}" iyz="0" izz="{i[2, 2]:.12g}"/>', '    </inertial>']
-        for item in drawables(self.scene):
-            if item.body != b:
-                continue
+        for item in (item for item in self.shapes if item.body == b):
             lines += ['    <visual>', f'      {_origin(in_link @ item.local)}',
                       f'      <geometry>{_geometry(item)}</geometry>',
                       f'      <material name="{body.name}_color"><color rgba='

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from affine_joint_sim.physics.model import quaternion_matrix
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
 from affine_joint_sim.progress import Progress
 from affine_joint_sim.viz.drawables import drawables
@@ -101,22 +102,17 @@ def _bodies_from_frames(scene, samples) -> np.ndarray:
     first = {}
     for i, body in enumerate(frames.body):
         first.setdefault(int(body), i)
+    to_body = {body: np.linalg.inv(frames.local[i]) for body, i in first.items()}
     out = np.tile(np.eye(4), (len(samples), len(scene.bodies), 1, 1))
     for k, poses in enumerate(samples):
         for body, i in first.items():
             p = poses[i]
             world = np.eye(4)
-            world[:3, :3] = _rotation(p.orientation)
+            world[:3, :3] = quaternion_matrix(p.orientation.x, p.orientation.y,
+                                              p.orientation.z, p.orientation.w)
             world[:3, 3] = p.position.x, p.position.y, p.position.z
-            out[k, body] = world @ np.linalg.inv(frames.local[i])
+            out[k, body] = world @ to_body[body]
     return out
-
-
-def _rotation(q) -> np.ndarray:
-    x, y, z, w = q.x, q.y, q.z, q.w
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def frame_times(track: Track, fps: float, start: float | None, stop: float | None,
