@@ -15,7 +15,8 @@ from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr
                       ValidationError, model_validator)
 
 __all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Limit', 'Drive', 'Shape', 'Solver',
-           'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh', 'topic_token']
+           'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh', 'topic_token',
+           'validation_report']
 
 # Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
 # names use topic_token(name).
@@ -332,8 +333,7 @@ class Scene(_Strict):
         try:
             scene = cls.model_validate(data)
         except ValidationError as exc:
-            raise SceneError(_format_errors(source, [
-                (_key_path(err['loc']), _message(err)) for err in exc.errors()])) from None
+            raise SceneError(validation_report(source, exc, cls)) from None
         problems = scene._cross_check()
         if problems:
             raise SceneError(_format_errors(source, problems))
@@ -512,9 +512,17 @@ def _key_path(loc) -> str:
     return path or '<top>'
 
 
-def _message(err) -> str:
+def validation_report(source: str, exc: ValidationError, model, what: str = 'scene') -> str:
+    """The problems of a pydantic ValidationError of ``model`` (the validated root: a Scene,
+    the overrides of a URDF scene, a sweep spec), one line per key path, under ``source``:
+    an invalid ``what``."""
+    return _format_errors(source, [(_key_path(err['loc']), _message(err, model))
+                                   for err in exc.errors()], what)
+
+
+def _message(err, model) -> str:
     if err['type'] == 'extra_forbidden':
-        return f'unknown key; valid keys here: {_valid_keys(err["loc"][:-1])}'
+        return f'unknown key; valid keys here: {_valid_keys(err["loc"][:-1], model)}'
     if err['type'] == 'finite_number':
         return 'must be a finite number (NaN and Inf are not allowed)'
     msg = err['msg'].removeprefix('Value error, ')
@@ -524,9 +532,9 @@ def _message(err) -> str:
         and not isinstance(err['input'], (dict, list)) else msg
 
 
-def _valid_keys(loc) -> str:
-    """The field names allowed at ``loc`` (a pydantic location), for unknown-key errors."""
-    model = Scene
+def _valid_keys(loc, model) -> str:
+    """The field names allowed at ``loc`` (a pydantic location below ``model``), for unknown-key
+    errors."""
     for part in loc:
         if isinstance(part, int):
             continue
@@ -545,7 +553,7 @@ def _flatten(annotation):
     return [t for a in args for t in _flatten(a)]
 
 
-def _format_errors(source: str, problems: list[tuple[str, str]]) -> str:
-    lines = [f'{source}: invalid scene ({len(problems)} problem{"s" * (len(problems) > 1)})']
+def _format_errors(source: str, problems: list[tuple[str, str]], what: str = 'scene') -> str:
+    lines = [f'{source}: invalid {what} ({len(problems)} problem{"s" * (len(problems) > 1)})']
     lines += [f'  {path}: {message}' for path, message in problems]
     return '\n'.join(lines)

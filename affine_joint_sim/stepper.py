@@ -292,7 +292,7 @@ class Stepper:
         call): position [m] and quaternion (x, y, z, w), w ≥ 0, of R·local with R the rotation
         nearest to the body's A (physics.frames). One replay of a captured launch, no Python
         per frame."""
-        k = step_kernels(scalar_of(self.scene.solver.precision))
+        k = self._k
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
         dtype = k.numpy_scalar
         inputs = [wp.array(np.asarray(body, dtype=np.int32), dtype=int, device=self.device),
@@ -300,7 +300,7 @@ class Stepper:
                   wp.array(local[:, :3, 3].astype(dtype), dtype=k.vec3, device=self.device)]
         out = wp.zeros((len(local), POSE_COLUMNS), dtype=wp.float64, device=self.device)
         host = out if self.device.is_cpu else wp.empty_like(out, device='cpu', pinned=True)
-        kernel = frame_kernel(scalar_of(self.scene.solver.precision))
+        kernel = frame_kernel(k.scalar)
         wp.load_module(kernel.module, device=self.device)
         with wp.ScopedCapture(device=self.device) as capture:
             wp.launch(kernel, dim=len(local), inputs=[self._state.q, int(env), *inputs, out],

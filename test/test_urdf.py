@@ -560,7 +560,8 @@ def test_free_base_needs_a_massive_root_and_fixed_base_does_not(tmp_path):
     ({'joints': {'nope': {'damping': 1.0}}}, "joints: 'nope' is not a joint of the robot"),
     ({'joints': {'hinge': {'damping': -1.0}}}, 'joints[0].damping'),
     ({'fixed_base': 'maybe'}, 'fixed_base'),
-    ({'colour': 'red'}, 'colour: unknown key'),
+    ({'colour': 'red'}, 'colour: unknown key; valid keys here: name, dt, gravity, solver, '
+                        'fixed_base, merge_fixed, initial_positions, package_paths, joints'),
 ])
 def test_bad_overrides_are_errors_naming_the_key(tmp_path, overrides, words):
     text = robot('<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm') + ARM)

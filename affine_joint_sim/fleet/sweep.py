@@ -27,7 +27,7 @@ from typing import Annotated, Literal
 import yaml
 from pydantic import Field, ValidationError
 
-from affine_joint_sim.scene import Number, _format_errors, _key_path, _message, _Strict
+from affine_joint_sim.scene import Number, _Strict, validation_report
 
 __all__ = ['SweepSpec', 'main']
 
@@ -75,8 +75,7 @@ def load_spec(path: Path) -> SweepSpec:
     try:
         spec = SweepSpec.model_validate(data if data is not None else {})
     except ValidationError as exc:
-        raise ValueError(_format_errors(str(path), [
-            (_key_path(err['loc']), _message(err)) for err in exc.errors()])) from None
+        raise ValueError(validation_report(str(path), exc, SweepSpec, 'sweep spec')) from None
     known = [c.name for c in cases()]
     unknown = [name for name in spec.cases if name not in known]
     if unknown:

@@ -28,8 +28,8 @@ import numpy as np
 from pydantic import Field, ValidationError
 
 from affine_joint_sim.physics.model import SimulationWarning
-from affine_joint_sim.scene import (Number, SceneError, Solver, Vec3, _format_errors, _key_path,
-                                    _message, _Strict)
+from affine_joint_sim.scene import (Number, SceneError, Solver, Vec3, _Strict,
+                                    validation_report)
 from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
                                            principal_frame)
 from affine_joint_sim.physics.mass import inertia_mass_properties
@@ -65,8 +65,7 @@ def scene_from_urdf(scene_cls, path, overrides: dict, source: str):
     try:
         options = UrdfOptions.model_validate(overrides)
     except ValidationError as exc:
-        raise SceneError(_format_errors(source, [
-            (_key_path(err['loc']), _message(err)) for err in exc.errors()])) from None
+        raise SceneError(validation_report(source, exc, UrdfOptions)) from None
     text, robot, notes = read_urdf(path)
     for note in notes:
         _warn(note)
