@@ -3,9 +3,10 @@
 Every state array has a leading environment axis; without ``num_envs`` the public properties
 drop it. A step is one replay of a captured graph: on CPU Warp's graph of the kernel launch
 (replayed in C++, ~0.4 µs over the kernel itself, against ~4 µs for a recorded launch); on a
-GPU a CUDA graph with the command upload and the output download captured in it. Commands are
-written and outputs read through NumPy views of host arrays, so nothing in ``step()`` but the
-replay and one comparison of the problem flags runs per step.
+GPU a CUDA graph, with the command upload captured in it when a setter changed a command.
+Commands are written and outputs read through NumPy views of host arrays (``mirrors``: on a
+GPU outputs are downloaded when read, by group), so nothing in ``step()`` but the replay and a
+look at one number, the count of environments that raised a problem flag, runs per step.
 """
 
 import math
@@ -19,6 +20,7 @@ from affine_joint_sim.physics.fields import (STAT_FLOAT_NAMES, STAT_INT_NAMES, a
                                              device_model)
 from affine_joint_sim.physics.frames import POSE_COLUMNS
 from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
+from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
 from affine_joint_sim.physics.model import (SimulationWarning, build_model,
                                             largest_step_efforts)
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
@@ -40,11 +42,10 @@ _PROBLEMS = {
     'line_search_failures': 'the line search found no decrease in 8 halvings',
 }
 _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_rejected')
-# The stats columns from 'converged' on are flags; a step without trouble has converged = 1 and
-# every other flag (and line_search_failures) 0: one byte comparison tells, every step.
-_FLAG_COLUMNS = slice(STAT_INT_NAMES.index('converged'), len(STAT_INT_NAMES))
-_ALL_CLEAR = np.array([name == 'converged' for name in STAT_INT_NAMES[_FLAG_COLUMNS]],
-                      dtype=np.int32)
+# Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU.
+_OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort'),
+                  'stats': ('stats_int', 'stats_float'), 'bodies': ('q', 'v'),
+                  'coordinate': ('joint_coordinate',)}
 
 
 class Stepper:
@@ -57,6 +58,9 @@ class Stepper:
         on_problem: called with the message of each problem a step reports (once per kind
             and reset); default: a ``SimulationWarning``.
     """
+
+    # Host mirrors on the CPU too: runs the GPU's upload/download path where CI can test it.
+    _mirror_on_cpu = False
 
     def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None,
                  on_problem=None):
@@ -156,11 +160,13 @@ class Stepper:
                       stacklevel=3)
             tau = np.clip(tau, -limit, limit)
         self._torque[:, k] = tau
+        self._uploads.written()
 
     def set_enabled(self, name: str, enabled) -> None:
         """Enable (True) or disable joint ``name``'s torque (external_torque/is_constrained)."""
         k = self._movable(name)
         self._enabled[:, k] = self._per_env(name, enabled, np.bool_)
+        self._uploads.written()
 
     def set_target(self, name: str, value) -> None:
         """Set the drive target of joint ``name`` [rad | m], acting from the next step.
@@ -175,22 +181,27 @@ class Stepper:
         if not np.all(np.isfinite(target)):
             raise ValueError(f'joint {name!r}: target must be finite, got {value!r}')
         self._target[:, k] = target
+        self._uploads.written()
 
     def set_drive_enabled(self, name: str, enabled) -> None:
         """Switch joint ``name``'s drive on (True) or off (driving/is_constrained)."""
         k = self.scene.joint_index(name)
         self._drive_enabled[:, k] = self._per_env(name, enabled, np.bool_)
+        self._uploads.written()
 
     def step(self) -> None:
         """Advance every environment by one dt.
 
         An environment whose step is rejected (``stats['step_rejected']``) keeps its last good
         state while the time still advances; a SimulationWarning says why, once per reset."""
-        wp.capture_launch(self._graph)
+        wp.capture_launch(self._graphs[self._uploads.pending])
+        self._uploads.pending = False
         if not self.device.is_cpu:
             wp.synchronize_device(self.device)
+        self._downloads.stale()
         self._steps += 1
-        self._check()
+        if self._troubled[0] != 0:
+            self._check()
 
     def reset(self) -> None:
         """Back to the scene's initial state, time 0 and the scene's initial commands."""
@@ -217,25 +228,25 @@ class Stepper:
             if joint.drive is not None:
                 self._target[:, k] = joint.drive.target
                 self._drive_enabled[:, k] = joint.drive.enabled
-        if self._mirror_outputs:
-            self._download()
+        self._uploads.written()
+        self._downloads.stale()
         self._steps = 0
 
     @property
     def angles(self) -> np.ndarray:
         """Joint coordinates: revolute angles [rad] per angle_mode, prismatic distances [m]
         (0 at t = 0), 0 for fixed joints; shape (n_joints,) or (num_envs, n_joints)."""
-        return self._out(self._angle)
+        return self._out(self._read('joint_position'))
 
     @property
     def velocities(self) -> np.ndarray:
         """Joint velocities Δx/dt [rad/s | m/s]."""
-        return self._out(self._velocity)
+        return self._out(self._read('joint_velocity'))
 
     @property
     def efforts(self) -> np.ndarray:
         """Torque [N·m] or force [N] applied in the last step (0 if disabled or fixed)."""
-        return self._out(self._effort)
+        return self._out(self._read('joint_effort'))
 
     @property
     def torques(self) -> np.ndarray:
@@ -255,17 +266,17 @@ class Stepper:
     @property
     def body_q(self) -> np.ndarray:
         """ABD state q = [p, a1, a2, a3] per body, world frame [m, -]."""
-        return self._out(self._q)
+        return self._out(self._read('q'))
 
     @property
     def body_qdot(self) -> np.ndarray:
         """ABD velocity q̇ = [ṗ, ȧ1, ȧ2, ȧ3] per body, world frame [m/s, 1/s]."""
-        return self._out(self._qdot)
+        return self._out(self._read('v'))
 
     @property
     def body_transforms(self) -> np.ndarray:
         """World transforms [[A, p], [0, 1]] per body, shape (..., n_bodies, 4, 4)."""
-        q = self._q
+        q = self._read('q')
         t = np.zeros((*q.shape[:2], 4, 4))
         t[..., :3, :3] = q[..., 3:].reshape(*q.shape[:2], 3, 3)
         t[..., :3, 3] = q[..., :3]
@@ -283,7 +294,7 @@ class Stepper:
         """Rigid world transforms of the link frames, (..., n_links, 4, 4): each body's pose
         with A replaced by its nearest rotation (polar decomposition), times the link's pose
         in the body."""
-        return self._out(self._links.world(rigid_transforms(self._q)))
+        return self._out(self._links.world(rigid_transforms(self._read('q'))))
 
     def pose_reader(self, body, local, env: int = 0):
         """A function that returns, each time it is called, the rigid world poses of frames on
@@ -323,7 +334,8 @@ class Stepper:
         """Mechanical energy [J]: kinetic + gravity + orthogonality + joint springs (per env).
 
         BDF steps dissipate it; a passive system must not gain it (physics.energy)."""
-        energy = mechanical_energy(self._host, self._q, self._qdot, self._coordinate)
+        energy = mechanical_energy(self._host, self._read('q'), self._read('v'),
+                                   self._read('joint_coordinate'))
         return energy if self._batched else float(energy[0])
 
     @property
@@ -334,16 +346,17 @@ class Stepper:
         turned more than 0.9π, flag ``angle_aliased``: the environment kept its start-of-step
         state), and ``active_terms``: the terms the next step evaluates (``torque`` only while
         some joint has an enabled, non-zero torque)."""
-        stats = {name: self._out(self._stats_int[:, i]) for i, name in enumerate(STAT_INT_NAMES)}
+        ints, floats = self._read('stats_int'), self._read('stats_float')
+        stats = {name: self._out(ints[:, i]) for i, name in enumerate(STAT_INT_NAMES)}
         for name in _FLAGS:
             stats[name] = stats[name].astype(bool) if self._batched else bool(stats[name])
-        stats.update({name: self._out(self._stats_float[:, i])
+        stats.update({name: self._out(floats[:, i])
                       for i, name in enumerate(STAT_FLOAT_NAMES)})
         torqued = (self._enabled != 0) & (self._torque != 0.0) & (self._host.joint_has_free != 0)
         stats['active_terms'] = list(self._host.active_terms) + ['torque'] * bool(torqued.any())
         stats['launches_per_step'] = 1
         free = self._host.body_fixed == 0
-        a = self._q[:, free, 3:].reshape(self._envs, -1, 3, 3)
+        a = self._read('q')[:, free, 3:].reshape(self._envs, -1, 3, 3)
         strain = np.linalg.norm(a @ np.swapaxes(a, -1, -2) - np.eye(3), axis=(-2, -1))
         stats['rotation_strain'] = self._out(strain.max(axis=-1, initial=0.0))
         return stats
@@ -353,55 +366,50 @@ class Stepper:
     def _allocate(self):
         k, h, dev, n = self._k, self._host, self.device, self._envs
         sizes = {'env': n, 'body': h.body_count, 'joint': h.joint_count,
-                 'stat_int': len(STAT_INT_NAMES), 'stat_float': len(STAT_FLOAT_NAMES)}
+                 'stat_int': len(STAT_INT_NAMES), 'stat_float': len(STAT_FLOAT_NAMES), 'one': 1}
         self._model = device_model(k, k.structs.Model, h, dev)
         state, control, scratch = (allocate(k, getattr(k.structs, group.capitalize()), group,
                                             sizes, dev)
                                    for group in ('state', 'control', 'scratch'))
         self._state, self._control, self._scratch = state, control, scratch
 
-        # Host views: on CPU the device arrays themselves; on CUDA pinned mirrors that the
-        # captured graph uploads (commands) before and downloads (outputs) after the kernel.
-        inputs = (control.joint_torque, control.joint_enabled, control.joint_target,
-                  control.joint_drive_enabled)
-        outputs = (state.joint_position, state.joint_velocity, state.joint_effort,
-                   state.stats_int, state.stats_float, state.q, state.v, state.joint_coordinate)
-        if self.device.is_cpu:
-            self._mirror_inputs, self._mirror_outputs = [], []
-            host_in, host_out = inputs, outputs
-        else:
-            host_in = [wp.empty_like(a, device='cpu', pinned=True) for a in inputs]
-            host_out = [wp.empty_like(a, device='cpu', pinned=True) for a in outputs]
-            self._mirror_inputs = list(zip(inputs, host_in))
-            self._mirror_outputs = list(zip(outputs, host_out))
+        separate = not (self.device.is_cpu and not self._mirror_on_cpu)
+        self._uploads = Uploads({'joint_torque': control.joint_torque,
+                                 'joint_enabled': control.joint_enabled,
+                                 'joint_target': control.joint_target,
+                                 'joint_drive_enabled': control.joint_drive_enabled}, separate)
         self._torque, self._enabled, self._target, self._drive_enabled = (
-            a.numpy() for a in host_in)
-        (self._angle, self._velocity, self._effort, self._stats_int, self._stats_float,
-         self._q, self._qdot, self._coordinate) = (a.numpy() for a in host_out)
+            self._uploads.views.values())
+        self._downloads = Downloads(dev, {group: {name: getattr(state, name) for name in names}
+                                          for group, names in _OUTPUT_GROUPS.items()}, separate)
+        self._troubled_host = host_copy(state.troubled_envs, separate)
+        self._troubled = self._troubled_host.numpy()
         self._warned = set()
-        self._all_clear = np.tile(_ALL_CLEAR, (n, 1)).tobytes()
+
+    def _read(self, name: str) -> np.ndarray:
+        """Host view of state output ``name``, current (downloaded on a GPU if it was not)."""
+        return self._downloads.read(name)
 
     def _record(self):
+        """Capture the step graphs: without (False) and with (True) the command upload."""
         args = [self._model, self._state, self._control, self._scratch]
+        troubled = self._state.troubled_envs
         wp.load_module(self._k.step.module, device=self.device)
-        with wp.ScopedCapture(device=self.device) as capture:
-            for device_array, host_array in self._mirror_inputs:
-                wp.copy(device_array, host_array)
-            wp.launch(self._k.step, dim=self._envs, inputs=args, device=self.device)
-            self._download()
-        self._graph = capture.graph
-
-    def _download(self):
-        for device_array, host_array in self._mirror_outputs:
-            wp.copy(host_array, device_array)
-        if not wp.get_device(self.device).is_capturing:
-            wp.synchronize_device(self.device)
+        self._graphs = {}
+        for upload in (False, True) if self._uploads.separate else (False,):
+            with wp.ScopedCapture(device=self.device) as capture:
+                if upload:
+                    self._uploads.record()
+                troubled.zero_()
+                wp.launch(self._k.step, dim=self._envs, inputs=args, device=self.device)
+                if self._troubled_host is not troubled:
+                    wp.copy(self._troubled_host, troubled)
+            self._graphs[upload] = capture.graph
+        self._graphs.setdefault(True, self._graphs[False])
 
     def _check(self):
         """Warn once per kind of trouble (the stats keep the per-step flags)."""
-        ints = self._stats_int
-        if ints[:, _FLAG_COLUMNS].tobytes() == self._all_clear:
-            return
+        ints = self._read('stats_int')
         rejected = ints[:, STAT_INT_NAMES.index('step_rejected')] != 0
         for i, name in enumerate(STAT_INT_NAMES):
             if name not in _PROBLEMS or name in self._warned:
@@ -412,7 +420,7 @@ class Stepper:
                 self._warned.add(name)
                 self._say(f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
                     max_iter=self.scene.solver.newton_max_iter,
-                    residual=float(self._stats_float[:, 0].max())), stacklevel=4)
+                    residual=float(self._read('stats_float')[:, 0].max())), stacklevel=4)
 
     def _say(self, message: str, stacklevel: int) -> None:
         """Report a problem: to ``on_problem``, else as a SimulationWarning attributed to the

@@ -4,18 +4,19 @@ import numpy as np
 import pytest
 import warp as wp
 
-from affine_joint_sim.physics.fields import FIELDS, GROUPS, allocate, fields_of
+from affine_joint_sim.physics.fields import FIELDS, GROUPS, allocate, env_bytes, fields_of
 from affine_joint_sim.physics.kernels import step_kernels
 from affine_joint_sim.physics.model import HostModel, build_model
 from test_joints import every_joint_type
 
-SIZES = {'env': 3, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 2}
+SIZES = {'env': 3, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 2, 'one': 1}
 
 
 @pytest.mark.parametrize('scalar', [wp.float64, wp.float32])
 def test_structs_and_allocation_follow_the_table(scalar):
     t = step_kernels(scalar)
     assert len({f.name for f in FIELDS}) == len(FIELDS), 'a field name is used twice'
+    per_env = 0
     for group in GROUPS:
         struct = getattr(t.structs, group.capitalize())
         assert list(struct.vars) == [f.name for f in fields_of(group)]
@@ -26,6 +27,9 @@ def test_structs_and_allocation_follow_the_table(scalar):
             array = getattr(instance, f.name)
             assert array.shape == tuple(SIZES[d] for d in f.shape), f.name
             assert f.unit and f.doc
+            if 'env' in f.shape:
+                per_env += array.capacity / SIZES['env']
+    assert env_bytes(t, SIZES) == per_env
 
 
 def test_the_host_model_carries_exactly_the_model_fields_with_their_shapes():

@@ -120,7 +120,8 @@ def build(t) -> SimpleNamespace:
     def write_stats(state: State, env: int, iterations: int, halvings: int, converged: int,
                     failures: int, aliased: int, dropped: int, finite: int, rejected: int,
                     residual: scalar, gap: scalar):
-        """The step's statistics, addressed by the names of physics.fields."""
+        """The step's statistics, addressed by the names of physics.fields; counts the
+        environment in state.troubled_envs when a flag is raised."""
         state.stats_int[env, s_iterations] = iterations
         state.stats_int[env, s_halvings] = halvings
         state.stats_int[env, s_converged] = converged
@@ -131,5 +132,8 @@ def build(t) -> SimpleNamespace:
         state.stats_int[env, s_rejected] = rejected
         state.stats_float[env, s_residual] = residual
         state.stats_float[env, s_gap] = gap
+        if (converged == 0 or failures != 0 or aliased != 0 or dropped != 0 or finite == 0
+                or rejected != 0):
+            wp.atomic_add(state.troubled_envs, 0, 1)
 
     return SimpleNamespace(finish=finish, largest_gap=largest_gap, write_stats=write_stats)

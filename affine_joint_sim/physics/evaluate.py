@@ -70,7 +70,7 @@ class Stages:
         self.device = device
         nb = self.host.body_count
         sizes = {'env': 1, 'body': nb, 'joint': self.host.joint_count, 'stat_int': 1,
-                 'stat_float': 1}
+                 'stat_float': 1, 'one': 1}
         self.model = device_model(self.t, self.t.structs.Model, self.host, device)
         self.state, self.control, self.scratch = (
             allocate(self.t, getattr(self.t.structs, group.capitalize()), group, sizes, device)

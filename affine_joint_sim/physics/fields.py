@@ -3,8 +3,9 @@
 Everything else follows from it: the Warp structs the step kernel reads (``structs``), the
 device arrays the Stepper allocates (``allocate``) and the check that a host model carries
 exactly the model's fields (``HostModel``). Shapes are symbolic: ``body`` (every scene body,
-fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments) and the
-statistics columns; ``()`` is a plain struct member, not an array. Frames: world, SI units.
+fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments), the
+statistics columns and ``one`` (a single element); ``()`` is a plain struct member, not an
+array. Frames: world, SI units.
 """
 
 from dataclasses import dataclass
@@ -14,7 +15,7 @@ import numpy as np
 import warp as wp
 
 __all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'structs',
-           'allocate', 'device_model', 'fields_of']
+           'allocate', 'device_model', 'fields_of', 'env_bytes']
 
 
 @dataclass(frozen=True)
@@ -103,6 +104,9 @@ FIELDS = _fields('model', [
     ('joint_effort', 'scalar', EJ, 'N·m | N', 'torque or force applied in the last step'),
     ('stats_int', 'int32', ('env', 'stat_int'), '-', 'STAT_INT_NAMES of the last step'),
     ('stats_float', 'scalar', ('env', 'stat_float'), 'm/s, m', 'STAT_FLOAT_NAMES'),
+    ('troubled_envs', 'int32', ('one',), '-', 'environments whose last step raised a problem '
+     'flag or a line-search failure (zeroed before each step): the one number the host reads '
+     'every step; the stats only when it is not 0'),
 ]) + _fields('control', [
     ('joint_torque', 'scalar', EJ, 'N·m | N', 'external torque τ (UID 668) or force (UID 667)'),
     ('joint_enabled', 'int32', EJ, '-', 'external_torque/is_constrained'),
@@ -178,3 +182,15 @@ def allocate(t, struct, group, sizes: dict, device):
         shape = tuple(sizes[d] for d in f.shape)
         setattr(instance, f.name, wp.zeros(shape, dtype=_wp_type(t, f.dtype), device=device))
     return instance
+
+
+def env_bytes(t, sizes: dict) -> int:
+    """Device bytes per environment of the State, Control and Scratch arrays (``sizes`` as
+    for ``allocate``; its ``env`` entry is ignored)."""
+    total = 0
+    for f in FIELDS:
+        if f.group != 'model' and 'env' in f.shape:
+            kind = _wp_type(t, f.dtype)
+            count = np.prod([sizes[d] for d in f.shape if d != 'env'], dtype=np.int64)
+            total += int(count) * wp.types.type_size_in_bytes(kind)
+    return total
