@@ -28,7 +28,7 @@ define install_project
 	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test,bench]'
 endef
 
-.PHONY: venv run test bench bags replay gallery lock clean
+.PHONY: venv run test bench bags replay gallery gpu-prep lock clean
 
 venv: $(STAMP)
 
@@ -76,6 +76,17 @@ test: venv
 
 bench: venv
 	$(VENV)/bin/affine-joint-sim bench
+
+# Prepares the GPU check (affine_joint_sim/bench/device_check.py) for a lent GPU machine that has
+# no compiler time to spare and no package index: the workplace's gpu-prep hook packs Warp and
+# compiles the step kernels of both precisions for sm_90 ahead of time (~5 min each on 2 cores),
+# then the CPU float64 reference trajectories are written beside them. The hook prints the two
+# device calls; the second runs
+#   python3 -m affine_joint_sim.bench.device_check run --reference .gpu-extra/reference.npz
+GPU_PREP ?= ../shared/hooks/gpu-prep
+gpu-prep: venv
+	$(GPU_PREP) --register 'from affine_joint_sim.bench.device_check import register; register()' all
+	$(PY) -m affine_joint_sim.bench.device_check reference .gpu-extra/reference.npz
 
 # Re-resolves every dependency to its newest allowed version in a scratch venv and pins the
 # result; `make venv` then brings $(VENV) to it.

@@ -13,14 +13,16 @@ __all__ = ['chain_scene']
 
 
 def chain_scene(links: int, *, link_length: float = 0.5, link_mass: float = 1.0,
-                dt: float = 0.01, integrator: str = 'bdf1', precision: str = 'float64',
-                torque_model: str = 'generalized', angle: float = 0.0) -> Scene:
-    """A scene ``chain<links>`` of ``links`` box links (0.05 m square section) and as many joints.
+                section: float = 0.05, dt: float = 0.01, integrator: str = 'bdf1',
+                precision: str = 'float64', torque_model: str = 'generalized',
+                angle: float = 0.0) -> Scene:
+    """A scene ``chain<links>`` of ``links`` box links of square section and as many joints.
 
     Args:
         links: number of moving links (= joints), at least 1.
         link_length: length of each link [m].
         link_mass: mass of each link [kg].
+        section: side of each link's square section [m]; the joint axis spans it.
         dt: time step [s].
         integrator: ``bdf1`` | ``bdf2``.
         precision: ``float64`` | ``float32``.
@@ -40,12 +42,13 @@ def chain_scene(links: int, *, link_length: float = 0.5, link_mass: float = 1.0,
     parent = 'base'
     for k in range(links):
         name = f'link{k}'
-        bodies.append({'name': name, 'shape': {'box': [0.05, 0.05, link_length]},
+        bodies.append({'name': name, 'shape': {'box': [section, section, link_length]},
                        'mass': link_mass, 'position': point((k + 0.5) * link_length),
                        'orientation': {'rpy': [angle, 0.0, 0.0]}})
         hinge = point(k * link_length)
         joints.append({'name': f'joint{k}', 'parent': parent, 'child': name,
-                       'x0': [-0.025, hinge[1], hinge[2]], 'x1': [0.025, hinge[1], hinge[2]],
+                       'x0': [-section / 2, hinge[1], hinge[2]],
+                       'x1': [section / 2, hinge[1], hinge[2]],
                        'torque_model': torque_model})
         parent = name
     return Scene.from_dict({'name': f'chain{links}', 'dt': dt,

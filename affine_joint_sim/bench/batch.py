@@ -83,7 +83,6 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
     publish(results, 'batch', text, rows, ('batch.png',))
 
 
-
 def add_parser(sections) -> None:
     add_section(sections, 'batch', run, FULL, QUICK,
                 help='env-steps/s of N = 1 … 65536 batched environments',

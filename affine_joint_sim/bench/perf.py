@@ -132,7 +132,6 @@ def default_names() -> list[str]:
     return list(TARGETS) + [name for name in packaged_scenes() if name not in TARGETS]
 
 
-
 def add_parser(sections) -> None:
     parser = add_section(
         sections, 'perf', run, FULL, QUICK, extra=('cases',),

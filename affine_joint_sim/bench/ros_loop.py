@@ -144,7 +144,6 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
             lockstep)
 
 
-
 def add_parser(sections) -> None:
     add_section(sections, 'ros_loop', run, FULL, QUICK,
                 help='node over DDS: fast-mode joint_states rate, lockstep latency',

@@ -87,7 +87,6 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
     publish(results, 'scaling', text, rows, ('scaling.png',))
 
 
-
 def add_parser(sections) -> None:
     add_section(sections, 'scaling', run, FULL, QUICK,
                 help='µs/step of chains of 1 … 256 links, log-log exponent and plot',

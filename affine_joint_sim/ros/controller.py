@@ -106,4 +106,3 @@ def main(targets: dict[str, float], kp: float, kd: float, effort_limit: float = 
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
-

@@ -1,0 +1,214 @@
+"""Every GPU check in one run and one table: ``python -m affine_joint_sim.bench.device_check``.
+
+A lent GPU comes with minutes, not hours, and without a CPU compiler or a package index, so the
+work is split (``make gpu-prep`` does the first two steps):
+
+1. ``register()`` builds the step kernels of both precisions exactly as a Stepper does; the
+   workplace's gpu-prep hook then compiles them for sm_90 ahead of time (Warp module hashes
+   must match, or the device compiles again).
+2. ``reference OUT.npz`` (CPU) writes the CPU float64 joint trajectories of the scenes.
+3. ``run --reference OUT.npz`` (on the device) prints one markdown table: per scene and
+   precision, the largest joint-coordinate difference from the CPU float64 run over
+   ``STEPS`` steps, batched against single environments on the device, then µs/step and
+   env-steps/s for every N: a full ``step()`` (a graph replay and a wait for the trouble
+   count, what a user's loop gets) and the kernel graph alone replayed back to back (the
+   difference is what the host side costs).
+
+Scenes (dt 0.01, BDF2): ``pendulum`` (one 1 kg 0.1×0.1×1 m link), ``chain6`` (six such links),
+2 N·m on every joint, and the packaged 6-joint ``arm`` (1 N·m on every joint).
+``run --device cpu`` runs the same checks on the CPU (the tests do, with small N).
+"""
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ['ENVS', 'STEPS', 'register', 'scenes', 'reference', 'check', 'main']
+
+ENVS = (1, 1024, 16384, 65536, 262144)
+STEPS = 300
+PRECISIONS = ('float64', 'float32')
+# Peers on an H100 with the same scenes (issue 16), env-steps/s and µs/step at N = 1.
+PEERS = ('peers (H100, CUDA graphs): Newton Featherstone 3.6e8 env-steps/s (pendulum, 65536 '
+         'worlds), MJX 4.4e7 (chain6; Featherstone 7e6); Newton XPBD 8.0e8 / 1.4e8 but ~1.8 rad '
+         'off on the pendulum; one environment: Newton 43–53 µs/step, MJX 127 µs/step')
+COLUMNS = ('scene', 'precision', 'N', 'µs/step', 'env-steps/s', 'graph µs/step',
+           'graph env-steps/s', 'Newton it./step', 'max |Δx| vs CPU f64', 'batched − single')
+
+
+def register() -> None:
+    """Build the step kernels of both precisions (the modules a Stepper loads)."""
+    import warp as wp
+
+    from affine_joint_sim.physics.kernels import step_kernels
+
+    for scalar in (wp.float64, wp.float32):
+        step_kernels(scalar)
+
+
+def scenes(precision: str) -> dict:
+    """name → (Scene, torque [N·m] on every joint) of the checked scenes."""
+    from affine_joint_sim.chain import chain_scene
+    from affine_joint_sim.resources import scene_path
+    from affine_joint_sim.scene import Scene
+
+    def chain(links):
+        return chain_scene(links, link_length=1.0, section=0.1, integrator='bdf2',
+                           precision=precision)
+
+    arm = Scene.load(scene_path('arm'))
+    arm = arm.model_copy(update={'solver': arm.solver.model_copy(
+        update={'integrator': 'bdf2', 'precision': precision})})
+    return {'pendulum': (chain(1), 2.0), 'chain6': (chain(6), 2.0), 'arm': (arm, 1.0)}
+
+
+def _stepper(scene, torque, device, envs=None, torques=None):
+    from affine_joint_sim.stepper import Stepper
+
+    sim = Stepper(scene, device=device, num_envs=envs, on_problem=lambda message: None)
+    for name in sim.command_joint_names:
+        sim.set_torque(name, torque if torques is None else torques)
+    return sim
+
+
+def _trajectory(sim, steps: int) -> np.ndarray:
+    out = []
+    for _ in range(steps):
+        sim.step()
+        out.append(sim.angles.copy())
+    return np.array(out)
+
+
+def reference(path: Path, steps: int = STEPS) -> None:
+    """Write the CPU float64 joint trajectories (steps, joints) of every scene to ``path``."""
+    runs = {name: _trajectory(_stepper(scene, torque, 'cpu'), steps)
+            for name, (scene, torque) in scenes('float64').items()}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, **runs)
+
+
+def _timed(sim, seconds: float) -> tuple[float, float]:
+    """(µs per full step, µs per replay of the kernel graph alone), each ~``seconds``."""
+    import warp as wp
+
+    start = time.perf_counter()
+    sim.step()
+    steps = max(3, round(seconds / max(time.perf_counter() - start, 1e-7)))
+    start = time.perf_counter()
+    for _ in range(steps):
+        sim.step()
+    full = (time.perf_counter() - start) / steps
+    graph = sim._graphs[False]          # the kernel launch alone: no upload, no wait
+    wp.synchronize_device(sim.device)
+    start = time.perf_counter()
+    for _ in range(steps):
+        wp.capture_launch(graph)
+    wp.synchronize_device(sim.device)
+    return full * 1e6, (time.perf_counter() - start) / steps * 1e6
+
+
+def _fits(scene, envs: int, device) -> bool:
+    """Whether ``envs`` environments take at most half the device's free memory."""
+    import warp as wp
+
+    from affine_joint_sim.physics.fields import env_bytes
+    from affine_joint_sim.physics.kernels import scalar_of, step_kernels
+
+    device = wp.get_device(device)
+    if device.is_cpu:
+        return True
+    sizes = {'body': len(scene.bodies), 'joint': len(scene.joints), 'stat_int': 8,
+             'stat_float': 2, 'one': 1}
+    need = envs * env_bytes(step_kernels(scalar_of(scene.solver.precision)), sizes)
+    return need < device.free_memory / 2
+
+
+def _row(name, precision, envs, **values) -> dict:
+    return dict({'scene': name, 'precision': precision, 'N': envs}, **values)
+
+
+def check(device: str, ref: dict | None, envs: tuple, steps: int, seconds: float,
+          deadline: float, emit) -> list[dict]:
+    """Every check on ``device``; ``emit(row)`` is called as each row is measured."""
+    rows = []
+    for precision in PRECISIONS:
+        for name, (scene, torque) in scenes(precision).items():
+            single = _trajectory(_stepper(scene, torque, device), steps)
+            spread = torque * np.array([1.0, -0.5, 0.25])
+            batch = _trajectory(_stepper(scene, torque, device, 3, spread), steps)
+            singles = [_trajectory(_stepper(scene, tau, device), steps) for tau in spread]
+            error = np.max(np.abs(single - ref[name])) if ref is not None else float('nan')
+            same = max(np.max(np.abs(batch[:, k] - s)) for k, s in enumerate(singles))
+            for n in envs:
+                if time.monotonic() > deadline:
+                    emit(_row(name, precision, n, note='skipped: out of time'))
+                    continue
+                if not _fits(scene, n, device):
+                    emit(_row(name, precision, n, note='skipped: memory'))
+                    continue
+                sim = _stepper(scene, torque, device, n)
+                full, graph = _timed(sim, seconds)
+                row = _row(name, precision, n, **{
+                    'µs/step': full, 'env-steps/s': n / full * 1e6, 'graph µs/step': graph,
+                    'graph env-steps/s': n / graph * 1e6,
+                    'Newton it./step': float(np.mean(sim.stats['newton_iterations'])),
+                    'max |Δx| vs CPU f64': error, 'batched − single': same})
+                del sim
+                rows.append(row)
+                emit(row)
+    return rows
+
+
+def _format(row: dict) -> str:
+    cells = []
+    for column in COLUMNS:
+        value = row.get(column, '')
+        if isinstance(value, float):
+            value = f'{value:.3g}'
+        cells.append(str(value))
+    if 'note' in row:
+        cells[3] = row['note']
+    return '| ' + ' | '.join(cells) + ' |'
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog='python -m affine_joint_sim.bench.device_check',
+                                     description=__doc__.split('\n\n')[0])
+    phases = parser.add_subparsers(dest='phase', required=True)
+    ref = phases.add_parser('reference', help='write the CPU float64 trajectories')
+    ref.add_argument('out', type=Path)
+    run = phases.add_parser('run', help='every check on --device, one table')
+    run.add_argument('--device', default='cuda')
+    run.add_argument('--reference', type=Path, help='npz from the reference phase')
+    run.add_argument('--envs', default=','.join(map(str, ENVS)),
+                     help='environment counts, comma-separated (default: %(default)s)')
+    run.add_argument('--steps', type=int, default=STEPS, help='steps of the correctness runs')
+    run.add_argument('--seconds', type=float, default=0.3, help='wall time per timed run')
+    run.add_argument('--budget', type=float, default=420.0,
+                     help='seconds after which the remaining N are skipped')
+    args = parser.parse_args(argv)
+    if args.phase == 'reference':
+        reference(args.out)
+        print(f'wrote {args.out}')
+        return 0
+    import warp as wp
+
+    start = time.monotonic()
+    device = wp.get_device(args.device)
+    print(f'device: {device.name} ({device.alias}), Warp {wp.config.version}')
+    ref = None
+    if args.reference is not None:
+        with np.load(args.reference) as data:
+            ref = {name: data[name][:args.steps] for name in data.files}
+    print('| ' + ' | '.join(COLUMNS) + ' |\n|' + '---|' * len(COLUMNS), flush=True)
+    check(args.device, ref, tuple(int(n) for n in args.envs.split(',')), args.steps,
+          args.seconds, start + args.budget, lambda row: print(_format(row), flush=True))
+    print(f'\n{PEERS}\ntotal {time.monotonic() - start:.0f} s')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,58 @@
+"""The GPU check script, run on the CPU: it must not fail for the first time on a lent GPU,
+and the kernels compiled ahead of time must be exactly the modules a run loads."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+
+from affine_joint_sim.bench import device_check
+
+
+def table(text: str) -> list[list[str]]:
+    lines = [line for line in text.splitlines() if line.startswith('| ') and '---' not in line]
+    return [[cell.strip() for cell in line.strip('|').split(' | ')] for line in lines[1:]]
+
+
+def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, capsys):
+    ref = tmp_path / 'reference.npz'
+    assert device_check.main(['reference', str(ref)]) == 0
+    with np.load(ref) as data:
+        assert sorted(data.files) == ['arm', 'chain6', 'pendulum']
+        assert data['chain6'].shape == (device_check.STEPS, 6)
+    capsys.readouterr()
+    assert device_check.main(['run', '--device', 'cpu', '--reference', str(ref), '--envs', '1,3',
+                              '--steps', '40', '--seconds', '0.001']) == 0
+    rows = table(capsys.readouterr().out)
+    columns = list(device_check.COLUMNS)
+    assert [(r[0], r[1], r[2]) for r in rows] == [
+        (scene, precision, n) for precision in ('float64', 'float32')
+        for scene in ('pendulum', 'chain6', 'arm') for n in ('1', '3')]
+    for row in rows:
+        error = float(row[columns.index('max |Δx| vs CPU f64')])
+        assert float(row[columns.index('batched − single')]) == 0.0
+        assert float(row[columns.index('env-steps/s')]) > 0
+        if row[1] == 'float64':
+            assert error == 0.0          # the same CPU kernel: equal to the last bit
+        else:
+            assert 0.0 < error < 1e-2    # float32 differs from float64, but not by much
+
+
+def test_the_registered_modules_are_exactly_the_ones_a_run_loads():
+    code = '''
+import json, warp as wp
+from warp._src.context import user_modules
+from affine_joint_sim.bench import device_check
+wp.init()
+device_check.register()
+ids = lambda keep: sorted(m.get_module_identifier() for m in list(user_modules.values())
+                          if m.kernels and not m.name.startswith('warp') and keep(m))
+registered = ids(lambda m: True)
+device_check.main(['run', '--device', 'cpu', '--envs', '1', '--steps', '2', '--seconds', '0'])
+print(json.dumps([registered, ids(lambda m: m.execs)]))
+'''
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True).stdout
+    registered, loaded = json.loads(out.strip().splitlines()[-1])
+    assert len(registered) == 2 and registered == loaded
