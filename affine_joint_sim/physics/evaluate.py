@@ -36,7 +36,7 @@ def _probe_kernel(t):
     warm_start = t.warm_start
     one = t.one
 
-    @wp.kernel(module='unique')
+    @wp.kernel(module='unique', enable_backward=False)
     def probe(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
               scratch: Scratch, which: int,
               energy_out: wp.array(dtype=scalar), coordinate_out: wp.array(dtype=scalar),
