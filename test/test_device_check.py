@@ -56,3 +56,26 @@ print(json.dumps([registered, ids(lambda m: m.execs)]))
                          check=True).stdout
     registered, loaded = json.loads(out.strip().splitlines()[-1])
     assert len(registered) == 2 and registered == loaded
+
+
+def test_resources_reads_the_step_kernel_cubins_of_each_precision(tmp_path, capsys):
+    import warp as wp
+
+    from affine_joint_sim.physics.kernels import step_kernels
+    from test_cubin import doubled
+
+    (cubin,) = wp.compile_aot_module(doubled.module, arch=90, module_dir=tmp_path / 'build')
+    folder = tmp_path / 'cache' / step_kernels(wp.float64).step.module.get_module_identifier()
+    folder.mkdir(parents=True)
+    (folder / cubin.name).write_bytes(cubin.read_bytes())    # stands in for the step kernel
+    (row,) = device_check.resources(tmp_path / 'cache')
+    assert row['precision'] == 'float64' and row['stack B'] == 0
+    assert row['warps/SM'] == device_check.warps_per_sm(row['registers'])
+    assert device_check.main(['resources', str(tmp_path / 'cache')]) == 0
+    assert cubin.name in capsys.readouterr().out
+
+
+def test_register_limited_occupancy_matches_the_sm_90_allocation_rules():
+    # 65536 registers per SM, allocated per warp in units of 256, at most 64 warps
+    assert [device_check.warps_per_sm(r) for r in (22, 32, 64, 128, 168, 255)] == [
+        64, 64, 32, 16, 12, 8]

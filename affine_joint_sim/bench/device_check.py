@@ -12,7 +12,11 @@ work is split (``make gpu-prep`` does the first two steps):
    ``STEPS`` steps, batched against single environments on the device, then µs/step and
    env-steps/s for every N: a full ``step()`` (a graph replay and a wait for the trouble
    count, what a user's loop gets) and the kernel graph alone replayed back to back (the
-   difference is what the host side costs).
+   difference is what the host side costs); then the step kernels' resources.
+
+``resources [DIR]`` (CPU, after step 1) prints what each compiled step kernel needs per thread
+(``bench.cubin``): registers, stack frame in local memory, code size, and the warps per SM
+that its registers allow: the predictions to check a GPU run against.
 
 Scenes (dt 0.01, BDF2): ``pendulum`` (one 1 kg 0.1×0.1×1 m link), ``chain6`` (six such links),
 2 N·m on every joint, and the packaged 6-joint ``arm`` (1 N·m on every joint).
@@ -162,6 +166,47 @@ def check(device: str, ref: dict | None, envs: tuple, steps: int, seconds: float
     return rows
 
 
+SM_REGISTERS, SM_WARPS, WARP = 65536, 64, 32      # per SM of sm_90 (H100, H200)
+
+
+def warps_per_sm(registers: int) -> int:
+    """Warps an sm_90 SM holds at once when each thread needs ``registers`` registers (a warp's
+    registers are allocated in units of 256; other limits, e.g. shared memory, aside)."""
+    per_warp = -(-registers * WARP // 256) * 256
+    return min(SM_WARPS, SM_REGISTERS // per_warp)
+
+
+def resources(cache_dir) -> list[dict]:
+    """Per precision, the resources of the step kernel's cubins under ``cache_dir`` (Warp's
+    kernel cache layout: one folder per module identifier)."""
+    import warp as wp
+
+    from affine_joint_sim.bench.cubin import kernel_resources
+    from affine_joint_sim.physics.kernels import step_kernels
+
+    rows = []
+    for precision, scalar in (('float64', wp.float64), ('float32', wp.float32)):
+        module = step_kernels(scalar).step.module.get_module_identifier()
+        for path in sorted(Path(cache_dir, module).glob('*.cubin')):
+            for kernel in kernel_resources(path):
+                warps = warps_per_sm(kernel.registers)
+                rows.append({'precision': precision, 'cubin': path.name,
+                             'registers': kernel.registers, 'stack B': kernel.frame_bytes,
+                             'code KB': kernel.code_bytes / 1024, 'warps/SM': warps,
+                             'stack per SM MB': warps * WARP * kernel.frame_bytes / 2 ** 20})
+    return rows
+
+
+def _markdown(rows: list[dict]) -> str:
+    if not rows:
+        return '(no step kernel cubins found)'
+    columns = list(rows[0])
+    lines = ['| ' + ' | '.join(columns) + ' |', '|' + '---|' * len(columns)]
+    lines += ['| ' + ' | '.join(f'{r[c]:.3g}' if isinstance(r[c], float) else str(r[c])
+                                for c in columns) + ' |' for r in rows]
+    return '\n'.join(lines)
+
+
 def _format(row: dict) -> str:
     cells = []
     for column in COLUMNS:
@@ -180,6 +225,8 @@ def main(argv=None) -> int:
     phases = parser.add_subparsers(dest='phase', required=True)
     ref = phases.add_parser('reference', help='write the CPU float64 trajectories')
     ref.add_argument('out', type=Path)
+    res = phases.add_parser('resources', help='registers, stack and code of the step kernels')
+    res.add_argument('dir', type=Path, nargs='?', default=Path('.gpu-extra/kernels'))
     run = phases.add_parser('run', help='every check on --device, one table')
     run.add_argument('--device', default='cuda')
     run.add_argument('--reference', type=Path, help='npz from the reference phase')
@@ -194,6 +241,9 @@ def main(argv=None) -> int:
         reference(args.out)
         print(f'wrote {args.out}')
         return 0
+    if args.phase == 'resources':
+        print(_markdown(resources(args.dir)))
+        return 0
     import warp as wp
 
     start = time.monotonic()
@@ -206,7 +256,8 @@ def main(argv=None) -> int:
     print('| ' + ' | '.join(COLUMNS) + ' |\n|' + '---|' * len(COLUMNS), flush=True)
     check(args.device, ref, tuple(int(n) for n in args.envs.split(',')), args.steps,
           args.seconds, start + args.budget, lambda row: print(_format(row), flush=True))
-    print(f'\n{PEERS}\ntotal {time.monotonic() - start:.0f} s')
+    print(f'\n{_markdown(resources(wp.config.kernel_cache_dir))}\n\n{PEERS}\n'
+          f'total {time.monotonic() - start:.0f} s')
     return 0
 
 
