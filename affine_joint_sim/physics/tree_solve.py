@@ -69,6 +69,29 @@ def build(t) -> SimpleNamespace:
         return w
 
     @wp.func
+    def subtract_gram(a: mat12, w: mat12):
+        """a − WᵀW on the lower triangle, the part ``cholesky`` reads (the upper keeps a's)."""
+        out = a
+        for i in range(12):
+            for j in range(i + 1):
+                r = out[i, j]
+                for k in range(12):
+                    r -= w[k, i] * w[k, j]
+                out[i, j] = r
+        return out
+
+    @wp.func
+    def subtract_transposed(b: vec12, w: mat12, y: vec12):
+        """b − Wᵀy."""
+        out = b
+        for i in range(12):
+            r = out[i]
+            for k in range(12):
+                r -= w[k, i] * y[k]
+            out[i] = r
+        return out
+
+    @wp.func
     def solve_tree(model: Model, scratch: Scratch, env: int):
         """Solve H dq = rhs into scratch.dq from the blocks scratch.hessian (diagonal) and
         model.elim_offdiag or, with state_coupling, scratch.offdiag (coupling to the tree
@@ -91,8 +114,8 @@ def build(t) -> SimpleNamespace:
                     off = scratch.offdiag[env, b]
                 w = forward_solve_matrix(low, off)
                 scratch.coupling[env, b] = w
-                scratch.factor[env, p] = scratch.factor[env, p] - wp.transpose(w) @ w
-                scratch.forward[env, p] = scratch.forward[env, p] - wp.transpose(w) @ y
+                scratch.factor[env, p] = subtract_gram(scratch.factor[env, p], w)
+                scratch.forward[env, p] = subtract_transposed(scratch.forward[env, p], w, y)
         for kk in range(n_free):
             b = model.elim_order[n_free - 1 - kk]
             r = scratch.forward[env, b]
