@@ -10,8 +10,8 @@ from helpers.physics import random_rotation as _random_rotation
 
 K = step_kernels(wp.float64)
 vec12, mat12, mat33 = K.vec12, K.mat12, K.mat33
-ortho_energy, ortho_gradient, ortho_hessian_psd = (K.ortho_energy, K.ortho_gradient,
-                                                   K.ortho_hessian_psd)
+ortho_energy, ortho_gradient, add_ortho_hessian = (K.ortho_energy, K.ortho_gradient,
+                                                   K.add_ortho_hessian)
 
 
 @wp.kernel(module='unique')
@@ -20,7 +20,7 @@ def _ortho(a: wp.array(dtype=mat33), energy: wp.array(dtype=wp.float64),
     i = wp.tid()
     energy[i] = ortho_energy(a[i])
     gradient[i] = ortho_gradient(a[i])
-    hessian[i] = ortho_hessian_psd(a[i])
+    hessian[i] = add_ortho_hessian(mat12(), wp.float64(1.0), a[i])
 
 
 def _ortho_reference(a):

@@ -20,7 +20,7 @@ def build(t) -> SimpleNamespace:
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     affine, mass_times, add_mass = t.affine, t.mass_times, t.add_mass
-    ortho_gradient, ortho_hessian_psd = t.ortho_gradient, t.ortho_hessian_psd
+    ortho_gradient, add_ortho_hessian = t.ortho_gradient, t.add_ortho_hessian
     joint_gradients, joint_state_blocks = t.joint_gradients, t.joint_state_blocks
     joint_coordinate, joint_coordinate_gradients = (t.joint_coordinate,
                                                     t.joint_coordinate_gradients)
@@ -80,8 +80,8 @@ def build(t) -> SimpleNamespace:
             ortho = dt2 * model.body_ortho_coeff[b]
             scratch.rhs[env, b] = -(kinetic_scale * mass_times(m, s, qb - scratch.q_tilde[env, b])
                                     + ortho * ortho_gradient(a))
-            scratch.hessian[env, b] = add_mass(
-                model.body_joint_hessian[b] + ortho * ortho_hessian_psd(a), m, s, kinetic_scale)
+            scratch.hessian[env, b] = add_ortho_hessian(
+                add_mass(model.body_joint_hessian[b], m, s, kinetic_scale), ortho, a)
             if model.state_coupling != 0:
                 scratch.offdiag[env, b] = model.elim_offdiag[b]
         for k in range(model.joint_parent.shape[0]):

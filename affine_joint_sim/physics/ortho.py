@@ -1,7 +1,8 @@
 """Orthogonality potential ‖AAᵀ − I‖² (physics_spec §2): energy, gradient, PSD Hessian.
 
 Values are per unit κ·v̄; the incremental potential scales them by dt²·κ·v̄. The PSD Hessian
-is the closed-form eigensystem of one 3×3 SVD, negative modes dropped (design.md §8).
+is the closed-form eigensystem of one 3×3 SVD, negative modes dropped (design.md §8), added
+scaled into a given 12×12 block (no 12×12 temporary of its own).
 """
 
 from types import SimpleNamespace
@@ -30,18 +31,19 @@ def build(t) -> SimpleNamespace:
         return affine_part(four * (c @ a))
 
     @wp.func
-    def add_mode(h: mat12, lam: scalar, mode: mat33):
-        """h += λ vec(mode) vec(mode)ᵀ on the affine block, if λ > 0 (PSD projection)."""
+    def add_mode(h: mat12, scale: scalar, lam: scalar, mode: mat33):
+        """h += scale·λ vec(mode) vec(mode)ᵀ on the affine block, if λ > 0 (PSD projection)."""
         out = h
         if lam > zero:
             w = affine_part(mode)
             for i in range(3, 12):
                 for j in range(3, 12):
-                    out[i, j] += lam * w[i] * w[j]
+                    out[i, j] += scale * lam * w[i] * w[j]
         return out
 
     @wp.func
-    def add_pair_modes(h: mat12, u: mat33, sigma: vec3, v: mat33, i: int, j: int):
+    def add_pair_modes(h: mat12, scale: scalar, u: mat33, sigma: vec3, v: mat33, i: int,
+                       j: int):
         """Twist and flip eigenpairs of the (i, j) singular-value pair (design.md §8)."""
         si, sj = sigma[i], sigma[j]
         ui = vec3(u[0, i], u[1, i], u[2, i])
@@ -50,21 +52,23 @@ def build(t) -> SimpleNamespace:
         vj = vec3(v[0, j], v[1, j], v[2, j])
         twist = inv_sqrt2 * (wp.outer(ui, vj) - wp.outer(uj, vi))
         flip = inv_sqrt2 * (wp.outer(ui, vj) + wp.outer(uj, vi))
-        out = add_mode(h, four * (si * si - si * sj + sj * sj) - four, twist)
-        return add_mode(out, four * (si * si + si * sj + sj * sj) - four, flip)
+        out = add_mode(h, scale, four * (si * si - si * sj + sj * sj) - four, twist)
+        return add_mode(out, scale, four * (si * si + si * sj + sj * sj) - four, flip)
 
     @wp.func
-    def ortho_hessian_psd(a: mat33):
-        """PSD projection of ∇²‖AAᵀ−I‖² from the closed-form eigensystem of one 3×3 SVD."""
+    def add_ortho_hessian(h: mat12, scale: scalar, a: mat33):
+        """h + scale · (PSD projection of ∇²‖AAᵀ−I‖²), from the closed-form eigensystem of
+        one 3×3 SVD."""
         u, sigma, v = svd(a)
-        h = mat12()
+        out = h
         for i in range(3):
             ui = vec3(u[0, i], u[1, i], u[2, i])
             vi = vec3(v[0, i], v[1, i], v[2, i])
-            h = add_mode(h, scalar(12.0) * sigma[i] * sigma[i] - four, wp.outer(ui, vi))
-        h = add_pair_modes(h, u, sigma, v, 0, 1)
-        h = add_pair_modes(h, u, sigma, v, 0, 2)
-        return add_pair_modes(h, u, sigma, v, 1, 2)
+            out = add_mode(out, scale, scalar(12.0) * sigma[i] * sigma[i] - four,
+                           wp.outer(ui, vi))
+        out = add_pair_modes(out, scale, u, sigma, v, 0, 1)
+        out = add_pair_modes(out, scale, u, sigma, v, 0, 2)
+        return add_pair_modes(out, scale, u, sigma, v, 1, 2)
 
     return SimpleNamespace(ortho_energy=ortho_energy, ortho_gradient=ortho_gradient,
-                           ortho_hessian_psd=ortho_hessian_psd)
+                           add_ortho_hessian=add_ortho_hessian)
