@@ -44,14 +44,14 @@ run: venv
 	$(VENV)/bin/affine-joint-sim demo --record results/demo-$$(date +%Y%m%d-%H%M%S)
 
 # Regenerates the sample bags in bags/ with the project's own recorder: the demo (lockstep PD
-# loop) and a torque step response (2 N·m on the pendulum's shoulder, sent while it runs; the
-# torque tool starts once the node is up: a participant that joins first may miss the node's
-# few announcements before the 2.5 s run ends).
+# loop) and a torque step response (2 N·m on the pendulum's shoulder, sent while it runs). The
+# torque tool starts 1 s after the node (which is up after ~1.1 s here): the tool waits for the
+# node's subscriber itself, and one started later than ~1.5 s found the 2.5 s run already over.
 bags: venv
 	rm -rf bags/demo_pd bags/torque_step
 	$(VENV)/bin/affine-joint-sim demo --duration 3 --record bags/demo_pd
 	$(VENV)/bin/affine-joint-sim run --mode realtime --duration 2.5 --record bags/torque_step & \
-	  sleep 2.5 && $(VENV)/bin/affine-joint-sim torque shoulder 2.0; wait
+	  sleep 1 && $(VENV)/bin/affine-joint-sim torque shoulder 2.0; wait
 
 # Re-simulates a bag and compares it with its recorded joint states: make replay BAG=DIR
 # (default: the demo sample bag).
