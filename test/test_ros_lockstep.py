@@ -42,6 +42,28 @@ def test_gate_republishes_and_reports_while_it_waits():
     assert not gate.republish_due() and gate.report_due() is None
 
 
+def test_the_demo_controller_answers_a_state_once_but_again_once_the_node_republishes(ros_node):
+    from sensor_msgs.msg import JointState
+
+    from affine_joint_sim.ros.controller import DUPLICATE_WINDOW, PDController
+
+    clock = FakeClock(10.0)
+    controller = PDController({'shoulder': 1.0}, clock=clock, context=ros_node.context)
+    state = JointState(name=['shoulder'], position=[0.0], velocity=[0.0])
+    state.header.stamp.nanosec = 10_000_000
+    controller._on_state(state)
+    controller._on_state(state)            # a copy queued behind the original: not answered
+    assert (controller.states_received, controller.copies_skipped) == (1, 1)
+    republish = LockstepGate().republish_every
+    assert republish > DUPLICATE_WINDOW
+    clock.now += republish                 # the node still waits: its republished copy is
+    controller._on_state(state)            # answered (a lost answer, or a reset to it)
+    state.header.stamp.nanosec = 20_000_000
+    controller._on_state(state)            # the next state, at once
+    assert (controller.states_received, controller.copies_skipped) == (3, 1)
+    controller.destroy_node()
+
+
 @pytest.fixture
 def controllers():
     """Return `start(joint, target, *flags) -> Popen` of plain controllers, all stopped at the

@@ -2,13 +2,18 @@
 
 On every ``joint_states`` message it answers with one command, the torques
 τ = kp (θ* − θ) − kd ω for the joints it has targets for, so against a ``lockstep`` node the
-closed loop is deterministic. The command goes out on ``joint_commands`` (a JointState: names
+closed loop is deterministic. It answers each state once: a copy of the state it has just
+answered (the node republishes a waiting state every 0.2 s, and a busy process can find the
+original and a copy queued together) is skipped, since a second answer would count for the
+node's next state. The command goes out on ``joint_commands`` (a JointState: names
 and efforts, stamped with the state it answers) or, as ros2_control's JointGroupEffortController
 does, on ``effort_commands`` (a Float64MultiArray: one effort per joint of ``joint_states``, 0
 for joints without a target; the node's ``command_joints`` default has that order). Being PD
 (no gravity model, no integral term), it settles ``m g l sin θ* / kp`` short of a target held
 against gravity.
 """
+
+import time
 
 import numpy as np
 import rclpy
@@ -18,7 +23,12 @@ from rclpy.node import Node
 
 from affine_joint_sim.ros.topics import load_topics
 
-__all__ = ['PDController', 'main']
+__all__ = ['PDController', 'main', 'DUPLICATE_WINDOW']
+
+# A state with the stamp just answered, received less than this long after the answer [s,
+# wall], is a copy of it. Shorter than the node's 0.2 s republish interval: a state still
+# waiting after that (a lost answer, or the same stamp again after a reset) is answered.
+DUPLICATE_WINDOW = 0.1
 
 
 class PDController(Node):
@@ -29,12 +39,13 @@ class PDController(Node):
         kp: proportional gain [N·m/rad].
         kd: derivative gain [N·m·s/rad].
         effort_limit: largest |τ| sent [N·m].
+        clock: wall clock in seconds (monotonic); injectable for tests.
         **node_kwargs: passed to ``rclpy.node.Node`` (``namespace=``, ``context=``).
     """
 
     def __init__(self, targets: dict[str, float], kp: float = 100.0, kd: float = 10.0,
                  effort_limit: float = np.inf, interface: str = 'joint_commands',
-                 **node_kwargs):
+                 clock=time.monotonic, **node_kwargs):
         super().__init__('pd_controller', **node_kwargs)
         self.targets, self.kp, self.kd, self.effort_limit = dict(targets), kp, kd, effort_limit
         self.interface = interface
@@ -48,8 +59,15 @@ class PDController(Node):
             self._command.name = list(self.targets)
         self.last_state = None
         self.states_received = 0
+        self.copies_skipped = 0
+        self._clock = clock
+        self._answered = (None, -np.inf)      # (stamp, wall time) of the last answer
 
     def _on_state(self, msg):
+        stamp, now = (msg.header.stamp.sec, msg.header.stamp.nanosec), self._clock()
+        if stamp == self._answered[0] and now - self._answered[1] < DUPLICATE_WINDOW:
+            self.copies_skipped += 1
+            return
         index = {name: i for i, name in enumerate(msg.name)}
         missing = [j for j in self.targets if j not in index]
         if missing:
@@ -70,6 +88,7 @@ class PDController(Node):
             efforts[rows] = tau
             self._command.data = efforts.tobytes()
         self.publisher.publish(self._command)
+        self._answered = (stamp, now)
         self.last_state = msg
         self.states_received += 1
 
@@ -79,8 +98,10 @@ class PDController(Node):
             return 'PD controller: no joint_states received'
         msg = self.last_state
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        copies = (f' ({self.copies_skipped} copies of an answered state skipped)'
+                  if self.copies_skipped else '')
         lines = [f'PD controller (kp {self.kp:g}, kd {self.kd:g}): {self.states_received} states '
-                 f'answered, last at t = {t:.3f} s',
+                 f'answered{copies}, last at t = {t:.3f} s',
                  f'{"joint":<12} {"target [rad]":>13} {"final [rad]":>13} {"error [rad]":>13}']
         for joint, target in self.targets.items():
             angle = msg.position[list(msg.name).index(joint)]
