@@ -14,17 +14,22 @@ __all__ = ['Uploads', 'Downloads', 'host_copy']
 
 
 def host_copy(array, separate: bool):
-    """``array`` itself, or (``separate``) a host copy of it, pinned for a GPU."""
+    """``array`` itself, or (``separate``) a host copy of it, pinned for a GPU. The copy has
+    landed when this returns (a setter may write it at once)."""
     if not separate:
         return array
-    return wp.clone(array, device='cpu', pinned=wp.get_device(array.device).is_cuda)
+    device = wp.get_device(array.device)
+    copy = wp.clone(array, device='cpu', pinned=device.is_cuda)
+    wp.synchronize_device(device)
+    return copy
 
 
 class Uploads:
     """Host views of the command arrays ``arrays`` (name → device array).
 
-    ``views[name]`` is the NumPy array a setter writes; it must then call ``written()``.
-    ``separate`` is False on the CPU (the views are the device arrays)."""
+    ``views[name]`` is the NumPy array a setter writes; it must then call ``written()``, and
+    the step asks ``take()`` whether to upload. ``separate`` is False on the CPU (the views are
+    the device arrays: nothing to upload)."""
 
     def __init__(self, arrays: dict, separate: bool):
         self._pairs = {name: (array, host_copy(array, separate))
@@ -36,6 +41,11 @@ class Uploads:
     def written(self) -> None:
         """A view was written: the next step uploads the commands (when they are separate)."""
         self.pending = self.separate
+
+    def take(self) -> bool:
+        """Whether this step must upload the commands (then they count as uploaded)."""
+        pending, self.pending = self.pending, False
+        return pending
 
     def record(self) -> None:
         """Issue the host → device copies (inside a graph capture)."""

@@ -16,8 +16,8 @@ import numpy as np
 import warp as wp
 
 from affine_joint_sim.physics.energy import mechanical_energy
-from affine_joint_sim.physics.fields import (STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
-                                             device_model)
+from affine_joint_sim.physics.fields import (PROBLEM_COLUMNS, STAT_FLOAT_NAMES, STAT_INT_NAMES,
+                                             allocate, array_sizes, device_model)
 from affine_joint_sim.physics.frames import POSE_COLUMNS
 from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
@@ -28,10 +28,10 @@ from affine_joint_sim.scene import Scene
 
 __all__ = ['Stepper', 'SimulationWarning']
 
-_PROBLEMS = {
-    'converged': 'Newton did not converge within newton_max_iter = {max_iter} iterations '
-                 '(stats["converged"] is False; residual {residual:.3g} m/s); the step keeps '
-                 'its last iterate',
+_PROBLEMS = {      # by physics.fields.PROBLEM_NAMES
+    'not_converged': 'Newton did not converge within newton_max_iter = {max_iter} iterations '
+                     '(stats["converged"] is False; residual {residual:.3g} m/s); the step '
+                     'keeps its last iterate',
     'non_finite': 'the step produced NaN/Inf: it was rejected and the last good state kept '
                   '(stats["step_rejected"]); reduce the torque or dt',
     'angle_aliased': 'a joint turned more than 0.9π in one step, so its angle would alias: the '
@@ -194,13 +194,12 @@ class Stepper:
 
         An environment whose step is rejected (``stats['step_rejected']``) keeps its last good
         state while the time still advances; a SimulationWarning says why, once per reset."""
-        wp.capture_launch(self._graphs[self._uploads.pending])
-        self._uploads.pending = False
+        wp.capture_launch(self._graphs[self._uploads.take()])
         if not self.device.is_cpu:
             wp.synchronize_device(self.device)
         self._downloads.stale()
         self._steps += 1
-        if self._troubled[0] != 0:
+        if self._problems[0] != 0:
             self._check()
 
     def reset(self) -> None:
@@ -310,7 +309,7 @@ class Stepper:
                   wp.array(local[:, :3, :3].astype(dtype), dtype=k.mat33, device=self.device),
                   wp.array(local[:, :3, 3].astype(dtype), dtype=k.vec3, device=self.device)]
         out = wp.zeros((len(local), POSE_COLUMNS), dtype=wp.float64, device=self.device)
-        host = out if self.device.is_cpu else wp.empty_like(out, device='cpu', pinned=True)
+        host = host_copy(out, not self.device.is_cpu)
         kernel = frame_kernel(k.scalar)
         wp.load_module(kernel.module, device=self.device)
         with wp.ScopedCapture(device=self.device) as capture:
@@ -365,15 +364,14 @@ class Stepper:
 
     def _allocate(self):
         k, h, dev, n = self._k, self._host, self.device, self._envs
-        sizes = {'env': n, 'body': h.body_count, 'joint': h.joint_count,
-                 'stat_int': len(STAT_INT_NAMES), 'stat_float': len(STAT_FLOAT_NAMES), 'one': 1}
+        sizes = array_sizes(h, n)
         self._model = device_model(k, k.structs.Model, h, dev)
         state, control, scratch = (allocate(k, getattr(k.structs, group.capitalize()), group,
                                             sizes, dev)
                                    for group in ('state', 'control', 'scratch'))
         self._state, self._control, self._scratch = state, control, scratch
 
-        separate = not (self.device.is_cpu and not self._mirror_on_cpu)
+        separate = not self.device.is_cpu or self._mirror_on_cpu
         self._uploads = Uploads({'joint_torque': control.joint_torque,
                                  'joint_enabled': control.joint_enabled,
                                  'joint_target': control.joint_target,
@@ -382,8 +380,8 @@ class Stepper:
             self._uploads.views.values())
         self._downloads = Downloads(dev, {group: {name: getattr(state, name) for name in names}
                                           for group, names in _OUTPUT_GROUPS.items()}, separate)
-        self._troubled_host = host_copy(state.troubled_envs, separate)
-        self._troubled = self._troubled_host.numpy()
+        self._problems_host = host_copy(state.problem_counts, separate)
+        self._problems = self._problems_host.numpy()
         self._warned = set()
 
     def _read(self, name: str) -> np.ndarray:
@@ -393,34 +391,30 @@ class Stepper:
     def _record(self):
         """Capture the step graphs: without (False) and with (True) the command upload."""
         args = [self._model, self._state, self._control, self._scratch]
-        troubled = self._state.troubled_envs
+        problems = self._state.problem_counts
         wp.load_module(self._k.step.module, device=self.device)
         self._graphs = {}
         for upload in (False, True) if self._uploads.separate else (False,):
             with wp.ScopedCapture(device=self.device) as capture:
                 if upload:
                     self._uploads.record()
-                troubled.zero_()
+                problems.zero_()
                 wp.launch(self._k.step, dim=self._envs, inputs=args, device=self.device)
-                if self._troubled_host is not troubled:
-                    wp.copy(self._troubled_host, troubled)
+                if self._problems_host is not problems:
+                    wp.copy(self._problems_host, problems)
             self._graphs[upload] = capture.graph
-        self._graphs.setdefault(True, self._graphs[False])
 
     def _check(self):
-        """Warn once per kind of trouble (the stats keep the per-step flags)."""
-        ints = self._read('stats_int')
-        rejected = ints[:, STAT_INT_NAMES.index('step_rejected')] != 0
-        for i, name in enumerate(STAT_INT_NAMES):
-            if name not in _PROBLEMS or name in self._warned:
+        """Warn once per kind of problem the last step had (the stats keep the per-step flags;
+        they are read only for the message of a kind not warned about yet)."""
+        for name, count in zip(PROBLEM_COLUMNS[1:], self._problems[1:]):
+            if count == 0 or name in self._warned:
                 continue
-            # a rejected step's Newton status does not matter: its state was not kept
-            bad = (ints[:, i] == 0) & ~rejected if name == 'converged' else ints[:, i] != 0
-            if bad.any():
-                self._warned.add(name)
-                self._say(f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
-                    max_iter=self.scene.solver.newton_max_iter,
-                    residual=float(self._read('stats_float')[:, 0].max())), stacklevel=4)
+            self._warned.add(name)
+            residual = (float(self._read('stats_float')[:, 0].max())
+                        if name == 'not_converged' else 0.0)
+            self._say(f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
+                max_iter=self.scene.solver.newton_max_iter, residual=residual), stacklevel=4)
 
     def _say(self, message: str, stacklevel: int) -> None:
         """Report a problem: to ``on_problem``, else as a SimulationWarning attributed to the

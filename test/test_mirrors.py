@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from affine_joint_sim import Stepper
-from affine_joint_sim.physics.fields import STAT_INT_NAMES
 from affine_joint_sim.physics.model import SimulationWarning
 from test_extremes import pendulum
 from test_joints import every_joint_type
@@ -36,6 +35,8 @@ def test_mirrored_path_equals_the_direct_views_while_commands_change():
                 sim.set_target('hinge', 0.1 * step / 60)
             if step == 40:
                 sim.set_drive_enabled('slide', False)
+            if step == 50:
+                sim.reset()             # uploads the scene's commands, stales every output
             sim.step()
         if step % 5 == 4:   # outputs not read for four steps must still be current when read
             for a, b in zip(outputs(direct), outputs(mirrored)):
@@ -65,16 +66,36 @@ def test_a_step_moves_only_what_is_read():
 
 
 @pytest.mark.parametrize('kind', [Stepper, MirroredStepper])
-def test_the_trouble_count_is_the_number_of_flagged_envs_and_warns_once(kind):
+def test_the_problem_counts_match_the_stats_flags_and_warn_once(kind):
     sim = kind(pendulum(0.0, solver={'newton_max_iter': 2, 'newton_tol': 1e-6}), num_envs=4)
     sim.set_torque('joint0', [0.0, 0.0, 50.0, 50.0])
-    flags = slice(STAT_INT_NAMES.index('converged'), None)
-    clear = np.array([name == 'converged' for name in STAT_INT_NAMES[flags]])
     with pytest.warns(SimulationWarning, match='did not converge') as caught:
         for _ in range(10):
             sim.step()
-            ints = np.column_stack([sim.stats[name] for name in STAT_INT_NAMES[flags]])
-            flagged = int(np.sum(np.any(ints != clear, axis=1)))
-            assert sim._troubled[0] == flagged
-            assert 0 < flagged < 4          # the resting environments stay clear
+            stats = sim.stats
+            kinds = np.array([~stats['converged'] & ~stats['step_rejected'],
+                              stats['non_finite'], stats['angle_aliased'],
+                              stats['torque_dropped'], stats['line_search_failures'] != 0])
+            expected = [int(np.sum(kinds.any(axis=0)))] + [int(np.sum(k)) for k in kinds]
+            assert list(sim._problems) == expected
+            assert 0 < expected[0] < 4       # the resting environments stay clear
     assert len([w for w in caught if 'did not converge' in str(w.message)]) == 1
+
+
+def test_a_problem_already_warned_about_moves_no_stats():
+    sim = MirroredStepper(pendulum(0.0, solver={'newton_max_iter': 2, 'newton_tol': 1e-6}),
+                          num_envs=2)
+    sim.set_torque('joint0', 50.0)
+    with pytest.warns(SimulationWarning, match='did not converge'):
+        for _ in range(10):
+            sim.step()
+    assert sim._problems[1] == 2 and sim._downloads.copies == 1   # the first message's residual
+
+
+def test_commands_written_without_a_setter_are_not_uploaded():
+    direct, mirrored = Stepper(every_joint_type()), MirroredStepper(every_joint_type())
+    mirrored.step(), direct.step()
+    mirrored._torque[:, mirrored.joint_names.index('slide')] = 5.0   # no written(): stays here
+    for _ in range(5):
+        mirrored.step(), direct.step()
+    assert np.array_equal(mirrored.angles, direct.angles)

@@ -16,7 +16,9 @@ from typing import NamedTuple
 __all__ = ['KernelResources', 'kernel_resources']
 
 _REGCOUNT, _FRAME_SIZE = 0x2F, 0x11
-_FORMAT_SVAL, _FORMAT_BVAL = 0x04, 0x02     # records with a payload of ``size`` bytes
+# Record formats: SVAL (0x04) has a payload of ``size`` bytes after its 4-byte header; NVAL,
+# BVAL and HVAL hold their value in the header itself.
+_FORMAT_SVAL = 0x04
 
 
 class KernelResources(NamedTuple):
@@ -29,7 +31,7 @@ class KernelResources(NamedTuple):
     code_bytes: int
 
 
-def _sections(data: bytes) -> dict:
+def _sections(data: bytes) -> list:
     if data[:4] != b'\x7fELF' or data[4] != 2:
         raise ValueError('not a 64-bit ELF file (cubin)')
     offset, = struct.unpack_from('<Q', data, 0x28)
@@ -67,8 +69,8 @@ def kernel_resources(path) -> list[KernelResources]:
         at, end = h[4], h[4] + h[5]
         while at < end:
             fmt, attribute, size = struct.unpack_from('<BBH', data, at)
-            if fmt in (_FORMAT_SVAL, _FORMAT_BVAL):
-                if fmt == _FORMAT_SVAL and attribute in values and size >= 8:
+            if fmt == _FORMAT_SVAL:
+                if attribute in values and size >= 8:
                     symbol, value = struct.unpack_from('<II', data, at + 4)
                     values[attribute][symbols[symbol]] = value
                 at += 4 + size

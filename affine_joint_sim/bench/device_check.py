@@ -105,7 +105,7 @@ def _timed(sim, seconds: float) -> tuple[float, float]:
     for _ in range(steps):
         sim.step()
     full = (time.perf_counter() - start) / steps
-    graph = sim._graphs[False]          # the kernel launch alone: no upload, no wait
+    graph = sim._graphs[False]   # the kernel and the 4-byte trouble count: no upload, no wait
     wp.synchronize_device(sim.device)
     start = time.perf_counter()
     for _ in range(steps):
@@ -118,14 +118,14 @@ def _fits(scene, envs: int, device) -> bool:
     """Whether ``envs`` environments take at most half the device's free memory."""
     import warp as wp
 
-    from affine_joint_sim.physics.fields import env_bytes
+    from affine_joint_sim.physics.fields import array_sizes, env_bytes
     from affine_joint_sim.physics.kernels import scalar_of, step_kernels
+    from affine_joint_sim.physics.model import build_model
 
     device = wp.get_device(device)
     if device.is_cpu:
         return True
-    sizes = {'body': len(scene.bodies), 'joint': len(scene.joints), 'stat_int': 8,
-             'stat_float': 2, 'one': 1}
+    sizes = array_sizes(build_model(scene), envs)
     need = envs * env_bytes(step_kernels(scalar_of(scene.solver.precision)), sizes)
     return need < device.free_memory / 2
 
@@ -140,6 +140,9 @@ def check(device: str, ref: dict | None, envs: tuple, steps: int, seconds: float
     rows = []
     for precision in PRECISIONS:
         for name, (scene, torque) in scenes(precision).items():
+            if time.monotonic() > deadline:
+                emit(_row(name, precision, '-', note='skipped: out of time'))
+                continue
             single = _trajectory(_stepper(scene, torque, device), steps)
             spread = torque * np.array([1.0, -0.5, 0.25])
             batch = _trajectory(_stepper(scene, torque, device, 3, spread), steps)
@@ -253,6 +256,9 @@ def main(argv=None) -> int:
     if args.reference is not None:
         with np.load(args.reference) as data:
             ref = {name: data[name][:args.steps] for name in data.files}
+        if min(len(r) for r in ref.values()) < args.steps:
+            parser.error(f'--steps {args.steps}: {args.reference} holds '
+                         f'{min(len(r) for r in ref.values())} steps per scene')
     print('| ' + ' | '.join(COLUMNS) + ' |\n|' + '---|' * len(COLUMNS), flush=True)
     check(args.device, ref, tuple(int(n) for n in args.envs.split(',')), args.steps,
           args.seconds, start + args.budget, lambda row: print(_format(row), flush=True))

@@ -11,12 +11,13 @@ from types import SimpleNamespace
 import warp as wp
 
 from affine_joint_sim.physics.codes import BDF2, CONTINUOUS
-from affine_joint_sim.physics.fields import STAT_FLOAT_NAMES, STAT_INT_NAMES
+from affine_joint_sim.physics.fields import PROBLEM_COLUMNS, STAT_FLOAT_NAMES, STAT_INT_NAMES
 
 __all__ = ['build']
 
 _I = {name: i for i, name in enumerate(STAT_INT_NAMES)}
 _F = {name: i for i, name in enumerate(STAT_FLOAT_NAMES)}
+_P = {name: i for i, name in enumerate(PROBLEM_COLUMNS)}
 
 
 def build(t) -> SimpleNamespace:
@@ -32,6 +33,16 @@ def build(t) -> SimpleNamespace:
                                         _I['torque_dropped'])
     s_non_finite, s_rejected = _I['non_finite'], _I['step_rejected']
     s_residual, s_gap = _F['residual'], _F['joint_gap']
+    p_any, p_not_converged, p_non_finite = _P['any'], _P['not_converged'], _P['non_finite']
+    p_aliased, p_dropped, p_failures = (_P['angle_aliased'], _P['torque_dropped'],
+                                        _P['line_search_failures'])
+
+    @wp.func
+    def count_problem(state: State, column: int, present: int):
+        """Count this environment under problem ``column`` if ``present``; returns present."""
+        if present != 0:
+            wp.atomic_add(state.problem_counts, column, 1)
+        return present
 
     @wp.func
     def wrap_angle(x: scalar):
@@ -120,8 +131,9 @@ def build(t) -> SimpleNamespace:
     def write_stats(state: State, env: int, iterations: int, halvings: int, converged: int,
                     failures: int, aliased: int, dropped: int, finite: int, rejected: int,
                     residual: scalar, gap: scalar):
-        """The step's statistics, addressed by the names of physics.fields; counts the
-        environment in state.troubled_envs when a flag is raised."""
+        """The step's statistics, addressed by the names of physics.fields, and the
+        environment counted in state.problem_counts under each problem it had (a rejected
+        step's Newton status does not count: its state was not kept)."""
         state.stats_int[env, s_iterations] = iterations
         state.stats_int[env, s_halvings] = halvings
         state.stats_int[env, s_converged] = converged
@@ -132,8 +144,20 @@ def build(t) -> SimpleNamespace:
         state.stats_int[env, s_rejected] = rejected
         state.stats_float[env, s_residual] = residual
         state.stats_float[env, s_gap] = gap
-        if (converged == 0 or failures != 0 or aliased != 0 or dropped != 0 or finite == 0
-                or rejected != 0):
-            wp.atomic_add(state.troubled_envs, 0, 1)
+        not_converged = int(0)
+        if converged == 0 and rejected == 0:
+            not_converged = 1
+        failed = int(0)
+        if failures != 0:
+            failed = 1
+        problems = count_problem(state, p_not_converged, not_converged)
+        problems += count_problem(state, p_non_finite, 1 - finite)
+        problems += count_problem(state, p_aliased, aliased)
+        problems += count_problem(state, p_dropped, dropped)
+        problems += count_problem(state, p_failures, failed)
+        any_problem = int(0)
+        if problems != 0:
+            any_problem = 1
+        count_problem(state, p_any, any_problem)
 
     return SimpleNamespace(finish=finish, largest_gap=largest_gap, write_stats=write_stats)

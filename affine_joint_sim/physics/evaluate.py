@@ -9,7 +9,7 @@ DOFs in scene order (12 per free body).
 import numpy as np
 import warp as wp
 
-from affine_joint_sim.physics.fields import allocate, device_model
+from affine_joint_sim.physics.fields import allocate, array_sizes, device_model
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
 from affine_joint_sim.physics.model import build_model
 
@@ -69,8 +69,7 @@ class Stages:
         self.t = step_kernels(scalar_of(scene.solver.precision))
         self.device = device
         nb = self.host.body_count
-        sizes = {'env': 1, 'body': nb, 'joint': self.host.joint_count, 'stat_int': 1,
-                 'stat_float': 1, 'one': 1}
+        sizes = array_sizes(self.host, 1)
         self.model = device_model(self.t, self.t.structs.Model, self.host, device)
         self.state, self.control, self.scratch = (
             allocate(self.t, getattr(self.t.structs, group.capitalize()), group, sizes, device)

@@ -4,7 +4,7 @@ Everything else follows from it: the Warp structs the step kernel reads (``struc
 device arrays the Stepper allocates (``allocate``) and the check that a host model carries
 exactly the model's fields (``HostModel``). Shapes are symbolic: ``body`` (every scene body,
 fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments), the
-statistics columns and ``one`` (a single element); ``()`` is a plain struct member, not an
+statistics columns and ``problem`` (PROBLEM_COLUMNS); ``()`` is a plain struct member, not an
 array. Frames: world, SI units.
 """
 
@@ -14,8 +14,9 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-__all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'structs',
-           'allocate', 'device_model', 'fields_of', 'env_bytes']
+__all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'PROBLEM_NAMES',
+           'PROBLEM_COLUMNS', 'structs',
+           'allocate', 'device_model', 'fields_of', 'env_bytes', 'array_sizes']
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,11 @@ STAT_INT_NAMES = ('newton_iterations', 'line_search_halvings', 'converged',
                   'line_search_failures', 'angle_aliased', 'torque_dropped', 'non_finite',
                   'step_rejected')
 STAT_FLOAT_NAMES = ('residual', 'joint_gap')
+# The kinds of trouble a step reports (Stepper warns once per kind): state.problem_counts holds
+# per step the number of environments with each, after column 0, the number with any.
+PROBLEM_NAMES = ('not_converged', 'non_finite', 'angle_aliased', 'torque_dropped',
+                 'line_search_failures')
+PROBLEM_COLUMNS = ('any',) + PROBLEM_NAMES
 
 B, F, J, E = ('body',), ('free',), ('joint',), ('env',)
 EB, EJ = ('env', 'body'), ('env', 'joint')
@@ -104,9 +110,9 @@ FIELDS = _fields('model', [
     ('joint_effort', 'scalar', EJ, 'N·m | N', 'torque or force applied in the last step'),
     ('stats_int', 'int32', ('env', 'stat_int'), '-', 'STAT_INT_NAMES of the last step'),
     ('stats_float', 'scalar', ('env', 'stat_float'), 'm/s, m', 'STAT_FLOAT_NAMES'),
-    ('troubled_envs', 'int32', ('one',), '-', 'environments whose last step raised a problem '
-     'flag or a line-search failure (zeroed before each step): the one number the host reads '
-     'every step; the stats only when it is not 0'),
+    ('problem_counts', 'int32', ('problem',), '-', 'environments of the last step with any and '
+     'with each kind of PROBLEM_COLUMNS (zeroed before each step): what the host reads every '
+     'step; the stats only for a kind it has not warned about yet'),
 ]) + _fields('control', [
     ('joint_torque', 'scalar', EJ, 'N·m | N', 'external torque τ (UID 668) or force (UID 667)'),
     ('joint_enabled', 'int32', EJ, '-', 'external_torque/is_constrained'),
@@ -182,6 +188,13 @@ def allocate(t, struct, group, sizes: dict, device):
         shape = tuple(sizes[d] for d in f.shape)
         setattr(instance, f.name, wp.zeros(shape, dtype=_wp_type(t, f.dtype), device=device))
     return instance
+
+
+def array_sizes(host, envs: int) -> dict:
+    """The symbolic dimensions of the fields for a host model and ``envs`` environments."""
+    return {'env': envs, 'body': host.body_count, 'free': int(np.sum(host.body_fixed == 0)),
+            'joint': host.joint_count, 'stat_int': len(STAT_INT_NAMES),
+            'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 
 
 def env_bytes(t, sizes: dict) -> int:
