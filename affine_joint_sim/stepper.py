@@ -6,7 +6,7 @@ drop it. A step is one replay of a captured graph: on CPU Warp's graph of the ke
 GPU a CUDA graph, with the command upload captured in it when a setter changed a command.
 Commands are written and outputs read through NumPy views of host arrays (``mirrors``: on a
 GPU outputs are downloaded when read, by group), so nothing in ``step()`` but the replay and a
-look at one number, the count of environments that raised a problem flag, runs per step.
+look at one number, the count of environments that had a problem, runs per step.
 """
 
 import math

@@ -10,8 +10,8 @@ work is split (``make gpu-prep`` does the first two steps):
 3. ``run --reference OUT.npz`` (on the device) prints one markdown table: per scene and
    precision, the largest joint-coordinate difference from the CPU float64 run over
    ``STEPS`` steps, batched against single environments on the device, then µs/step and
-   env-steps/s for every N: a full ``step()`` (a graph replay and a wait for the trouble
-   count, what a user's loop gets) and the kernel graph alone replayed back to back (the
+   env-steps/s for every N: a full ``step()`` (a graph replay and a wait for the problem
+   counts, what a user's loop gets) and the kernel graph alone replayed back to back (the
    difference is what the host side costs); then the step kernels' resources.
 
 ``resources [DIR]`` (CPU, after step 1) prints what each compiled step kernel needs per thread
@@ -105,7 +105,7 @@ def _timed(sim, seconds: float) -> tuple[float, float]:
     for _ in range(steps):
         sim.step()
     full = (time.perf_counter() - start) / steps
-    graph = sim._graphs[False]   # the kernel and the 4-byte trouble count: no upload, no wait
+    graph = sim._graphs[False]   # the kernel and the problem counts: no upload, no wait
     wp.synchronize_device(sim.device)
     start = time.perf_counter()
     for _ in range(steps):
