@@ -24,7 +24,7 @@ def build(t) -> SimpleNamespace:
     joint_gradients, joint_state_blocks = t.joint_gradients, t.joint_state_blocks
     joint_coordinate, joint_coordinate_gradients = (t.joint_coordinate,
                                                     t.joint_coordinate_gradients)
-    coordinate_terms = t.coordinate_terms
+    coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
 
     @wp.func
     def add_blocks(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
@@ -56,8 +56,12 @@ def build(t) -> SimpleNamespace:
         if has != 0:
             add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
         if model.joint_state_terms[k] != 0:
-            e, d1, d2 = coordinate_terms(model, state, control, env, k,
-                                         joint_coordinate(model, q, state, env, k), bdf2)
+            x = joint_coordinate(model, q, state, env, k)
+            e, d1, d2 = coordinate_terms(model, state, control, env, k, x, bdf2)
+            if model.joint_limit_strength[k] > zero:
+                depth, change = limit_secant(model, k, x, scratch.limit_depth[env, k])
+                scratch.limit_depth[env, k] = depth
+                d2 += change
             if d1 != zero or d2 != zero:     # e.g. an inactive limit alone costs no blocks
                 x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
                 add_blocks(model, scratch, env, k, d1 * x_parent, d1 * x_child,

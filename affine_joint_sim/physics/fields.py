@@ -131,6 +131,8 @@ FIELDS = _fields('model', [
     ('offdiag', 'mat12', EB, 'kg', 'H[b, elim_parent[b]] of the current iterate (when the '
      'model has state_coupling)'),
     ('coupling', 'mat12', EB, 'kg^½', 'L⁻¹ H[b, parent] of the tree solve'),
+    ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
+     '(0: inside the limits; −1: none yet this step)'),
 ])
 
 GROUPS = ('model', 'state', 'control', 'scratch')

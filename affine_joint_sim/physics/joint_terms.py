@@ -6,6 +6,9 @@ the φ' ∇²x term is dropped). x is the multi-turn angle [rad] or the distance
 committed coordinate plus the in-step increment, so limits and targets work across ±π.
 
 - limit (UID 670 / 669): s((x−u)/(u−l))³ above u, s((l−x)/(u−l))³ below l, s|x−l|³ if u = l;
+  entered from outside in one Newton step, its φ'' (zero at the limit) lets the iterate
+  overshoot deep and then only halve its depth per iteration; once two iterates show that
+  halving, ``limit_secant`` replaces φ'' by the secant towards the depth it heads for;
 - drive (UID 19 and its prismatic analogue): K/2 (x − target)² while enabled;
 - damping c (viscous, ours): the dissipation potential c/(2 dt)·(x − x_n)² of implicit Euler,
   which is c·dt/2·(x − x_n)² in this dt²-scaled potential; under BDF2 its velocity estimate
@@ -25,6 +28,8 @@ def build(t) -> SimpleNamespace:
     vec12, scalar = t.vec12, t.scalar
     zero, half, three = t.zero, t.half, t.three
     six = scalar(6.0)
+    two = t.two
+    halving_low, halving_high = scalar(0.4), scalar(0.6)
     bdf2_x_n, bdf2_x_prev, bdf2_gain = scalar(4.0 / 3.0), scalar(1.0 / 3.0), scalar(1.5)
     Model, State, Control = t.structs.Model, t.structs.State, t.structs.Control
     joint_coordinate_step = t.joint_coordinate_step
@@ -65,6 +70,31 @@ def build(t) -> SimpleNamespace:
         return e, d1, d2
 
     @wp.func
+    def limit_secant(model: Model, k: int, x: scalar, previous: scalar):
+        """(depth, Δφ'') of the limit at x: its penetration / (u − l), and the change that turns
+        φ'' into the secant slope of φ' towards the depth Newton is heading for, when the last
+        two iterates show the halving that a cubic penalty entered from outside causes (depth
+        ≈ half the previous one: the solution depth ĝ then follows from ĝ² = p (2g − p)). Only
+        the Hessian changes, never the gradient, so the solution does not; Δφ'' ≤ 0 keeps φ''
+        positive (the secant 3s(g + ĝ)/(u − l)² against the tangent 6sg/(u − l)²)."""
+        lower = model.joint_limit_lower[k]
+        upper = model.joint_limit_upper[k]
+        width = upper - lower
+        depth = zero
+        change = zero
+        if width > zero:
+            if x > upper:
+                depth = (x - upper) / width
+            elif x < lower:
+                depth = (lower - x) / width
+            if depth > zero and previous > zero and depth < halving_high * previous and (
+                    depth > halving_low * previous):
+                target = wp.sqrt(wp.max(previous * (two * depth - previous), zero))
+                change = three * model.joint_limit_strength[k] * (target - depth) / (
+                    width * width)
+        return depth, change
+
+    @wp.func
     def coordinate_terms(model: Model, state: State, control: Control, env: int, k: int,
                          x: scalar, bdf2: int):
         """(φ, φ', φ'') of joint k's limit + drive + damping at coordinate x."""
@@ -92,4 +122,5 @@ def build(t) -> SimpleNamespace:
             d2 += gain
         return e, d1, d2
 
-    return SimpleNamespace(joint_coordinate=joint_coordinate, coordinate_terms=coordinate_terms)
+    return SimpleNamespace(joint_coordinate=joint_coordinate, coordinate_terms=coordinate_terms,
+                           limit_secant=limit_secant)

@@ -110,6 +110,8 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_tilde[env, b]
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
+        for k in range(model.joint_parent.shape[0]):
+            scratch.limit_depth[env, k] = -one
         tol = model.newton_tol * dt
         energy = zero
         if model.line_search != 0:
