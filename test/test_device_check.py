@@ -25,7 +25,7 @@ def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, cap
     assert device_check.main(['run', '--device', 'cpu', '--reference', str(ref), '--envs', '1,3',
                               '--steps', '40', '--seconds', '0.001']) == 0
     rows = table(capsys.readouterr().out)
-    columns = list(device_check.COLUMNS)
+    columns = [c.header for c in device_check.COLUMNS]
     assert [(r[0], r[1], r[2]) for r in rows] == [
         (scene, precision, n) for precision in ('float64', 'float32')
         for scene in ('pendulum', 'chain6', 'arm') for n in ('1', '3')]
@@ -69,8 +69,8 @@ def test_resources_reads_the_step_kernel_cubins_of_each_precision(tmp_path, caps
     folder.mkdir(parents=True)
     (folder / cubin.name).write_bytes(cubin.read_bytes())    # stands in for the step kernel
     (row,) = device_check.resources(tmp_path / 'cache')
-    assert row['precision'] == 'float64' and row['stack B'] == 0
-    assert row['warps/SM'] == device_check.warps_per_sm(row['registers'])
+    assert row['precision'] == 'float64' and row['stack'] == 0
+    assert row['warps'] == device_check.warps_per_sm(row['registers'])
     assert device_check.main(['resources', str(tmp_path / 'cache')]) == 0
     assert cubin.name in capsys.readouterr().out
 

@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from affine_joint_sim.bench.report import Column, markdown_row, markdown_table
+
 __all__ = ['ENVS', 'STEPS', 'register', 'scenes', 'reference', 'check', 'main']
 
 ENVS = (1, 1024, 16384, 65536, 262144)
@@ -39,8 +41,15 @@ PRECISIONS = ('float64', 'float32')
 PEERS = ('peers (H100, CUDA graphs): Newton Featherstone 3.6e8 env-steps/s (pendulum, 65536 '
          'worlds), MJX 4.4e7 (chain6; Featherstone 7e6); Newton XPBD 8.0e8 / 1.4e8 but ~1.8 rad '
          'off on the pendulum; one environment: Newton 43–53 µs/step, MJX 127 µs/step')
-COLUMNS = ('scene', 'precision', 'N', 'µs/step', 'env-steps/s', 'graph µs/step',
-           'graph env-steps/s', 'Newton it./step', 'max |Δx| vs CPU f64', 'batched − single')
+COLUMNS = [Column('scene', 'scene'), Column('precision', 'precision'), Column('envs', 'N'),
+           Column('us_per_step', 'µs/step', '{:.3g}'),
+           Column('env_steps_per_s', 'env-steps/s', '{:.3g}'),
+           Column('graph_us_per_step', 'graph µs/step', '{:.3g}'),
+           Column('graph_env_steps_per_s', 'graph env-steps/s', '{:.3g}'),
+           Column('newton_iterations', 'Newton it./step', '{:.3g}'),
+           Column('error', 'max |Δx| vs CPU f64', '{:.3g}'),
+           Column('batched_minus_single', 'batched − single', '{:.3g}'),
+           Column('note', 'note')]
 
 
 def register() -> None:
@@ -114,24 +123,27 @@ def _timed(sim, seconds: float) -> tuple[float, float]:
     return full * 1e6, (time.perf_counter() - start) / steps * 1e6
 
 
-def _fits(scene, envs: int, device) -> bool:
-    """Whether ``envs`` environments take at most half the device's free memory."""
-    import warp as wp
-
+def _env_bytes(scene) -> int:
+    """Device bytes one environment of ``scene`` takes (physics.fields.env_bytes)."""
     from affine_joint_sim.physics.fields import array_sizes, env_bytes
     from affine_joint_sim.physics.kernels import scalar_of, step_kernels
     from affine_joint_sim.physics.model import build_model
 
+    return env_bytes(step_kernels(scalar_of(scene.solver.precision)),
+                     array_sizes(build_model(scene), 1))
+
+
+def _fits(per_env: int, envs: int, device) -> bool:
+    """Whether ``envs`` environments of ``per_env`` bytes take at most half the device's free
+    memory."""
+    import warp as wp
+
     device = wp.get_device(device)
-    if device.is_cpu:
-        return True
-    sizes = array_sizes(build_model(scene), envs)
-    need = envs * env_bytes(step_kernels(scalar_of(scene.solver.precision)), sizes)
-    return need < device.free_memory / 2
+    return device.is_cpu or envs * per_env < device.free_memory / 2
 
 
 def _row(name, precision, envs, **values) -> dict:
-    return dict({'scene': name, 'precision': precision, 'N': envs}, **values)
+    return dict({'scene': name, 'precision': precision, 'envs': envs}, **values)
 
 
 def check(device: str, ref: dict | None, envs: tuple, steps: int, seconds: float,
@@ -149,20 +161,21 @@ def check(device: str, ref: dict | None, envs: tuple, steps: int, seconds: float
             singles = [_trajectory(_stepper(scene, tau, device), steps) for tau in spread]
             error = np.max(np.abs(single - ref[name])) if ref is not None else float('nan')
             same = max(np.max(np.abs(batch[:, k] - s)) for k, s in enumerate(singles))
+            per_env = _env_bytes(scene)
             for n in envs:
                 if time.monotonic() > deadline:
                     emit(_row(name, precision, n, note='skipped: out of time'))
                     continue
-                if not _fits(scene, n, device):
+                if not _fits(per_env, n, device):
                     emit(_row(name, precision, n, note='skipped: memory'))
                     continue
                 sim = _stepper(scene, torque, device, n)
                 full, graph = _timed(sim, seconds)
-                row = _row(name, precision, n, **{
-                    'µs/step': full, 'env-steps/s': n / full * 1e6, 'graph µs/step': graph,
-                    'graph env-steps/s': n / graph * 1e6,
-                    'Newton it./step': float(np.mean(sim.stats['newton_iterations'])),
-                    'max |Δx| vs CPU f64': error, 'batched − single': same})
+                row = _row(name, precision, n, us_per_step=full,
+                           env_steps_per_s=n / full * 1e6, graph_us_per_step=graph,
+                           graph_env_steps_per_s=n / graph * 1e6,
+                           newton_iterations=float(np.mean(sim.stats['newton_iterations'])),
+                           error=error, batched_minus_single=same)
                 del sim
                 rows.append(row)
                 emit(row)
@@ -194,32 +207,21 @@ def resources(cache_dir) -> list[dict]:
             for kernel in kernel_resources(path):
                 warps = warps_per_sm(kernel.registers)
                 rows.append({'precision': precision, 'cubin': path.name,
-                             'registers': kernel.registers, 'stack B': kernel.frame_bytes,
-                             'code KB': kernel.code_bytes / 1024, 'warps/SM': warps,
-                             'stack per SM MB': warps * WARP * kernel.frame_bytes / 2 ** 20})
+                             'registers': kernel.registers, 'stack': kernel.frame_bytes,
+                             'code': kernel.code_bytes / 1024, 'warps': warps,
+                             'stack_per_sm': warps * WARP * kernel.frame_bytes / 2 ** 20})
     return rows
 
 
-def _markdown(rows: list[dict]) -> str:
-    if not rows:
-        return '(no step kernel cubins found)'
-    columns = list(rows[0])
-    lines = ['| ' + ' | '.join(columns) + ' |', '|' + '---|' * len(columns)]
-    lines += ['| ' + ' | '.join(f'{r[c]:.3g}' if isinstance(r[c], float) else str(r[c])
-                                for c in columns) + ' |' for r in rows]
-    return '\n'.join(lines)
+RESOURCE_COLUMNS = [Column('precision', 'precision'), Column('cubin', 'cubin'),
+                    Column('registers', 'registers'), Column('stack', 'stack B'),
+                    Column('code', 'code KB', '{:.3g}'), Column('warps', 'warps/SM'),
+                    Column('stack_per_sm', 'stack per SM MB', '{:.3g}')]
 
 
-def _format(row: dict) -> str:
-    cells = []
-    for column in COLUMNS:
-        value = row.get(column, '')
-        if isinstance(value, float):
-            value = f'{value:.3g}'
-        cells.append(str(value))
-    if 'note' in row:
-        cells[3] = row['note']
-    return '| ' + ' | '.join(cells) + ' |'
+def _resource_table(cache_dir) -> str:
+    rows = resources(cache_dir)
+    return markdown_table(rows, RESOURCE_COLUMNS) if rows else '(no step kernel cubins found)'
 
 
 def main(argv=None) -> int:
@@ -245,7 +247,7 @@ def main(argv=None) -> int:
         print(f'wrote {args.out}')
         return 0
     if args.phase == 'resources':
-        print(_markdown(resources(args.dir)))
+        print(_resource_table(args.dir))
         return 0
     import warp as wp
 
@@ -259,10 +261,11 @@ def main(argv=None) -> int:
         if min(len(r) for r in ref.values()) < args.steps:
             parser.error(f'--steps {args.steps}: {args.reference} holds '
                          f'{min(len(r) for r in ref.values())} steps per scene')
-    print('| ' + ' | '.join(COLUMNS) + ' |\n|' + '---|' * len(COLUMNS), flush=True)
+    print(markdown_table([], COLUMNS), flush=True)
     check(args.device, ref, tuple(int(n) for n in args.envs.split(',')), args.steps,
-          args.seconds, start + args.budget, lambda row: print(_format(row), flush=True))
-    print(f'\n{_markdown(resources(wp.config.kernel_cache_dir))}\n\n{PEERS}\n'
+          args.seconds, start + args.budget,
+          lambda row: print(markdown_row(row, COLUMNS), flush=True))
+    print(f'\n{_resource_table(wp.config.kernel_cache_dir)}\n\n{PEERS}\n'
           f'total {time.monotonic() - start:.0f} s')
     return 0
 

@@ -7,7 +7,7 @@ import csv
 from pathlib import Path
 from typing import NamedTuple
 
-__all__ = ['Column', 'loglog_plot', 'markdown_table', 'publish', 'write_csv']
+__all__ = ['Column', 'loglog_plot', 'markdown_row', 'markdown_table', 'publish', 'write_csv']
 
 
 class Column(NamedTuple):
@@ -22,11 +22,16 @@ class Column(NamedTuple):
         return '—' if value is None else self.fmt.format(value)
 
 
+def markdown_row(row: dict, columns: list[Column]) -> str:
+    """One markdown table line of ``row`` (to print rows as they are measured)."""
+    return '| ' + ' | '.join(c.cell(row) for c in columns) + ' |'
+
+
 def markdown_table(rows: list[dict], columns: list[Column]) -> str:
     """A markdown table of ``rows`` with one column per ``Column``."""
     lines = ['| ' + ' | '.join(c.header for c in columns) + ' |',
              '|' + '---|' * len(columns)]
-    lines += ['| ' + ' | '.join(c.cell(row) for c in columns) + ' |' for row in rows]
+    lines += [markdown_row(row, columns) for row in rows]
     return '\n'.join(lines)
 
 
