@@ -26,7 +26,8 @@ __all__ = ['build']
 def build(t) -> SimpleNamespace:
     """Warp functions of the coordinate terms for the types namespace ``t``."""
     vec12, scalar = t.vec12, t.scalar
-    zero, half, three = t.zero, t.half, t.three
+    zero, half, one, three = t.zero, t.half, t.one, t.three
+    minus_one = scalar(-1.0)
     six = scalar(6.0)
     two = t.two
     halving_low, halving_high = scalar(0.4), scalar(0.6)
@@ -42,25 +43,36 @@ def build(t) -> SimpleNamespace:
         return previous + joint_coordinate_step(model, q, env, k, previous)
 
     @wp.func
+    def limit_penetration(model: Model, k: int, x: scalar):
+        """(g, side) of a limit of width u − l > 0 at x: the penetration g = (x − u)/(u − l)
+        above it (side +1) or (l − x)/(u − l) below it (side −1); (0, 0) inside."""
+        lower = model.joint_limit_lower[k]
+        upper = model.joint_limit_upper[k]
+        width = upper - lower
+        g = zero
+        side = zero
+        if x > upper:
+            g = (x - upper) / width
+            side = one
+        elif x < lower:
+            g = (lower - x) / width
+            side = minus_one
+        return g, side
+
+    @wp.func
     def limit_term(model: Model, k: int, x: scalar):
         """(φ, φ', φ'') of the cubic limit penalty."""
         s = model.joint_limit_strength[k]
         lower = model.joint_limit_lower[k]
-        upper = model.joint_limit_upper[k]
-        width = upper - lower
+        width = model.joint_limit_upper[k] - lower
         e = zero
         d1 = zero
         d2 = zero
         if width > zero:
-            if x > upper:
-                g = (x - upper) / width
+            g, side = limit_penetration(model, k, x)
+            if side != zero:
                 e = s * g * g * g
-                d1 = three * s * g * g / width
-                d2 = six * s * g / (width * width)
-            elif x < lower:
-                g = (lower - x) / width
-                e = s * g * g * g
-                d1 = -three * s * g * g / width
+                d1 = side * (three * s * g * g / width)
                 d2 = six * s * g / (width * width)
         else:
             g = wp.abs(x - lower)
@@ -77,16 +89,11 @@ def build(t) -> SimpleNamespace:
         ≈ half the previous one: the solution depth ĝ then follows from ĝ² = p (2g − p)). Only
         the Hessian changes, never the gradient, so the solution does not; Δφ'' ≤ 0 keeps φ''
         positive (the secant 3s(g + ĝ)/(u − l)² against the tangent 6sg/(u − l)²)."""
-        lower = model.joint_limit_lower[k]
-        upper = model.joint_limit_upper[k]
-        width = upper - lower
+        width = model.joint_limit_upper[k] - model.joint_limit_lower[k]
         depth = zero
         change = zero
         if width > zero:
-            if x > upper:
-                depth = (x - upper) / width
-            elif x < lower:
-                depth = (lower - x) / width
+            depth, side = limit_penetration(model, k, x)
             if depth > zero and previous > zero and depth < halving_high * previous and (
                     depth > halving_low * previous):
                 target = wp.sqrt(wp.max(previous * (two * depth - previous), zero))
