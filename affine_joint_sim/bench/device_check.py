@@ -78,10 +78,16 @@ def scenes(precision: str) -> dict:
     return {'pendulum': (chain(1), 2.0), 'chain6': (chain(6), 2.0), 'arm': (arm, 1.0)}
 
 
-def _stepper(scene, torque, device, envs=None, torques=None):
+def _stepper(scene, torque, device, envs=None, torques=None, said=None):
+    """A Stepper with ``torque`` (or per-env ``torques``) on every joint; the problems it
+    reports go into the set ``said`` (their messages without the time), not to warnings."""
     from affine_joint_sim.stepper import Stepper
 
-    sim = Stepper(scene, device=device, num_envs=envs, on_problem=lambda message: None)
+    def heard(message):
+        if said is not None:
+            said.add(message.split(': ', 1)[-1].split(' (')[0])
+
+    sim = Stepper(scene, device=device, num_envs=envs, on_problem=heard)
     for name in sim.command_joint_names:
         sim.set_torque(name, torque if torques is None else torques)
     return sim
@@ -155,10 +161,12 @@ def check(device: str, ref: dict | None, envs: tuple, steps: int, seconds: float
             if time.monotonic() > deadline:
                 emit(_row(name, precision, '-', note='skipped: out of time'))
                 continue
-            single = _trajectory(_stepper(scene, torque, device), steps)
+            said = set()        # problems any run of this scene reported: in the note column
+            single = _trajectory(_stepper(scene, torque, device, said=said), steps)
             spread = torque * np.array([1.0, -0.5, 0.25])
-            batch = _trajectory(_stepper(scene, torque, device, 3, spread), steps)
-            singles = [_trajectory(_stepper(scene, tau, device), steps) for tau in spread]
+            batch = _trajectory(_stepper(scene, torque, device, 3, spread, said), steps)
+            singles = [_trajectory(_stepper(scene, tau, device, said=said), steps)
+                       for tau in spread]
             error = np.max(np.abs(single - ref[name])) if ref is not None else float('nan')
             same = max(np.max(np.abs(batch[:, k] - s)) for k, s in enumerate(singles))
             per_env = _env_bytes(scene)
@@ -169,13 +177,14 @@ def check(device: str, ref: dict | None, envs: tuple, steps: int, seconds: float
                 if not _fits(per_env, n, device):
                     emit(_row(name, precision, n, note='skipped: memory'))
                     continue
-                sim = _stepper(scene, torque, device, n)
+                sim = _stepper(scene, torque, device, n, said=said)
                 full, graph = _timed(sim, seconds)
                 row = _row(name, precision, n, us_per_step=full,
                            env_steps_per_s=n / full * 1e6, graph_us_per_step=graph,
                            graph_env_steps_per_s=n / graph * 1e6,
                            newton_iterations=float(np.mean(sim.stats['newton_iterations'])),
-                           error=error, batched_minus_single=same)
+                           error=error, batched_minus_single=same,
+                           note='; '.join(sorted(said)) or None)
                 del sim
                 rows.append(row)
                 emit(row)
