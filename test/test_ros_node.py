@@ -100,6 +100,10 @@ def test_position_commands_drive_the_joints_that_have_a_drive(sim, ros_node, wai
                                                               tmp_path):
     data = yaml.safe_load(SCENES.joinpath('double_pendulum.yaml').read_text())
     data['joints'][0]['drive'] = {'target': 0.0, 'strength_ratio': 0.01}
+    for joint in data['joints']:
+        # undamped, this soft drive swings the double pendulum for seconds (0.1..0.7 rad at
+        # step 300): the phase, not the drive, would decide the assertion below
+        joint['damping'] = 3.0
     scene = tmp_path / 'driven.yaml'
     scene.write_text(yaml.safe_dump(data))
     child = sim('--scene', scene, '--mode', 'lockstep')
@@ -111,7 +115,8 @@ def test_position_commands_drive_the_joints_that_have_a_drive(sim, ros_node, wai
         positions.publish(Float64MultiArray(data=[0.4, 0.0]))
         assert wait_for(lambda: len(states.messages) > count)
     # the drive holds 0.4 rad less the sag of its spring K/dt² under the links' weight
-    assert 0.3 < states.last.position[0] < 0.4
+    settled = [state.position[0] for state in states.messages[-50:]]
+    assert 0.3 < min(settled) and max(settled) < 0.4 and max(settled) - min(settled) < 1e-3
     output = child.stop()
     assert "joint 'elbow' has no drive" in output and output.count('has no drive') == 1
 
