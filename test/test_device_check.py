@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from affine_joint_sim.bench import device_check
 
@@ -30,11 +31,13 @@ def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, cap
         (scene, precision, n) for precision in ('float64', 'float32')
         for scene in ('pendulum', 'chain6', 'arm') for n in ('1', '3')]
     for row in rows:
-        error = float(row[columns.index('max |Δx| vs CPU f64')])
+        error = float(row[columns.index('largest Δθ vs CPU f64 [rad]')])
         assert float(row[columns.index('batched − single')]) == 0.0
         assert float(row[columns.index('env-steps/s')]) > 0
+        agreeing = int(row[columns.index('steps within 1e-09')])
         if row[1] == 'float64':
             assert error == 0.0          # the same CPU kernel: equal to the last bit
+            assert agreeing == 40
         else:
             assert 0.0 < error < 1e-2    # float32 differs from float64, but not by much
 
@@ -79,3 +82,12 @@ def test_register_limited_occupancy_matches_the_sm_90_allocation_rules():
     # 65536 registers per SM, allocated per warp in units of 256, at most 64 warps
     assert [device_check.warps_per_sm(r) for r in (22, 32, 64, 128, 168, 255)] == [
         64, 64, 32, 16, 12, 8]
+
+
+def test_angles_that_pass_pi_in_one_run_only_differ_by_their_distance():
+    before = np.array([[3.14, 0.5], [3.14, 0.5]])
+    after = np.array([[-3.14, 0.5], [3.14, 0.5]])       # 0.0032 rad further on, wrapped
+    np.testing.assert_allclose(device_check._angle_errors(after, before),
+                               [2 * np.pi - 6.28, 0.0], atol=1e-15)
+    assert device_check._agreeing_steps(np.array([0.0, 1e-10, 2e-9, 0.0])) == 2
+    assert device_check._agreeing_steps(np.array([0.0, 1e-10])) == 2

@@ -2,9 +2,10 @@
 
 From q̃ (with solver.warm_start, a body whose prediction added shear starts from the rotation
 of q̃ times the stretch of q_n: see ``warm_start``): assemble, tree-solve, test convergence on
-the fresh direction (largest box-corner displacement and largest affine entry ≤ newton_tol·dt),
-then a backtracking line search on E (≤ 8 halvings, accept on no increase up to the rounding of
-E). Runs inside the step kernel: no host sync.
+the fresh direction (largest box-corner displacement and largest affine entry ≤ newton_tol·dt,
+or ≤ their rounding floor where that is larger: see ``extent``), then a backtracking line
+search on E (≤ 8 halvings, accept on no increase up to the rounding of E, its own and that
+from the coordinates': see ``position_rounding``). Runs inside the step kernel: no host sync.
 """
 
 from types import SimpleNamespace
@@ -18,8 +19,9 @@ def build(t) -> SimpleNamespace:
     """Warp functions of the Newton loop for the types namespace ``t``."""
     mat33, vec12, scalar = t.mat33, t.vec12, t.scalar
     zero, half, one, two = t.zero, t.half, t.one, t.two
-    affine, ortho_energy, svd = t.affine, t.ortho_energy, t.svd
+    affine, ortho_energy, svd, mass_times = t.affine, t.ortho_energy, t.svd, t.mass_times
     rigid_strain, roundoff = t.rigid_strain, t.energy_roundoff
+    update_roundoff = t.update_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     assemble, solve_tree = t.assemble, t.solve_tree
@@ -65,11 +67,47 @@ def build(t) -> SimpleNamespace:
         return disp, affine_max
 
     @wp.func
+    def extent(model: Model, q: wp.array2d(dtype=vec12), env: int):
+        """(largest world coordinate of a free body's box corner [m], smallest largest half
+        extent of a free body [m]): the scale of position rounding and the shortest lever that
+        turns it into rounding of an affine entry."""
+        size = zero
+        lever = zero
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            p = q[env, b]
+            h = model.body_half_extent[b]
+            longest = wp.max(wp.max(h[0], h[1]), h[2])
+            size = wp.max(size, wp.max(wp.max(wp.abs(p[0]), wp.abs(p[1])), wp.abs(p[2])) + longest)
+            if k == 0:
+                lever = longest
+            lever = wp.min(lever, longest)
+        return size, lever
+
+    @wp.func
     def move(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, alpha: scalar):
         """q = q_start + α dq on the free bodies."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             q[env, b] = scratch.q_start[env, b] + alpha * scratch.dq[env, b]
+
+    @wp.func
+    def position_rounding(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
+                          env: int, kinetic_scale: scalar):
+        """How far E [J·s²] moves when every coordinate of q and q̃ moves by its rounding
+        (update_roundoff relative): the inertial force M (q − q̃), which the other forces
+        balance near the solution, times those roundings, twice. Far from the origin in
+        float32 this outgrows the relative rounding of E and a line search judging smaller
+        changes compares noise."""
+        noise = zero
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            x = q[env, b] - scratch.q_tilde[env, b]
+            force = mass_times(model.body_mass[b], model.body_second_moment[b], x)
+            for i in range(12):
+                size = wp.max(wp.abs(q[env, b][i]), wp.abs(scratch.q_tilde[env, b][i]))
+                noise += wp.abs(force[i]) * size
+        return two * update_roundoff * kinetic_scale * noise
 
     @wp.func
     def line_search(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
@@ -84,7 +122,8 @@ def build(t) -> SimpleNamespace:
         accepted = int(0)
         halvings = int(0)
         trial = zero
-        bound = energy + roundoff * wp.abs(energy)
+        bound = energy + roundoff * wp.abs(energy) + position_rounding(model, q, scratch, env,
+                                                                         kinetic_scale)
         for ls in range(9):
             move(model, q, scratch, env, alpha)
             trial = incremental_potential(model, state, control, q, scratch, env,
@@ -112,7 +151,10 @@ def build(t) -> SimpleNamespace:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
         for k in range(model.joint_parent.shape[0]):
             scratch.limit_depth[env, k] = -one
-        tol = model.newton_tol * dt
+        # newton_tol·dt, or the rounding of an update if larger: below it Newton only cycles
+        size, lever = extent(model, q, env)
+        disp_tol = wp.max(model.newton_tol * dt, update_roundoff * size)
+        affine_tol = wp.max(model.newton_tol * dt, update_roundoff * size / lever)
         energy = zero
         if model.line_search != 0:
             energy = incremental_potential(model, state, control, q, scratch, env,
@@ -131,7 +173,7 @@ def build(t) -> SimpleNamespace:
             for k in range(n_free):
                 b = model.elim_order[k]
                 scratch.q_start[env, b] = q[env, b]
-            if disp <= tol and affine_max <= tol:
+            if disp <= disp_tol and affine_max <= affine_tol:
                 move(model, q, scratch, env, one)
                 converged = 1
                 break
@@ -145,5 +187,6 @@ def build(t) -> SimpleNamespace:
             energy = trial
         return iterations, halvings, failures, converged, residual
 
-    return SimpleNamespace(warm_start=warm_start, update_size=update_size, move=move,
+    return SimpleNamespace(warm_start=warm_start, update_size=update_size, extent=extent,
+                           move=move,
                            line_search=line_search, newton=newton)
