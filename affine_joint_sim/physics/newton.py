@@ -122,8 +122,9 @@ def build(t) -> SimpleNamespace:
         accepted = int(0)
         halvings = int(0)
         trial = zero
-        bound = energy + roundoff * wp.abs(energy) + position_rounding(model, q, scratch, env,
-                                                                         kinetic_scale)
+        slack = roundoff * wp.abs(energy) + position_rounding(model, q, scratch, env,
+                                                              kinetic_scale)
+        bound = energy + slack
         for ls in range(9):
             move(model, q, scratch, env, alpha)
             trial = incremental_potential(model, state, control, q, scratch, env,
