@@ -11,7 +11,7 @@ import pytest
 
 from affine_joint_sim.ros.lockstep import LockstepGate
 from helpers.logged_node import LoggedNode
-from helpers.ros_client import DT_NS, Inbox, stamp_ns
+from helpers.ros_client import DT_NS, Inbox, call, publisher, stamp_ns
 from helpers.clock import FakeClock
 
 CONTROLLER = Path(__file__).resolve().parent / 'helpers' / 'plain_controller.py'
@@ -24,8 +24,10 @@ def test_gate_counts_answers_to_the_waiting_state_and_drops_stale_ones():
     assert gate.answer(30 * DT_NS) and not gate.released
     assert not gate.answer(29 * DT_NS) and gate.stale == 1      # answers a state that is gone
     assert gate.answer(0) and gate.released                      # unstamped: the current state
+    assert gate.surplus == 0
+    assert gate.answer(30 * DT_NS) and gate.surplus == 1         # a third answer: surplus
     gate.expect(31 * DT_NS)
-    assert not gate.released and gate.answers == 0
+    assert not gate.released and gate.answers == 0 and gate.surplus == 1
 
 
 def test_gate_republishes_and_reports_while_it_waits():
@@ -139,3 +141,19 @@ def test_more_controllers_than_lockstep_publishers_is_said(
     assert wait_for(lambda: node.said('2 publishers on /joint_commands'), timeout=30.0)
     output = node.stop()
     assert 'elbow_controller' in output and 'shoulder_controller' in output
+
+
+def test_answers_beyond_lockstep_publishers_are_counted_and_said(tmp_path, ros_node, wait_for):
+    from std_msgs.msg import Float64MultiArray
+    from std_srvs.srv import SetBool
+
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep')
+    pause = '/affine_joint_sim/pause'
+    assert call(ros_node, wait_for, SetBool, pause, SetBool.Request(data=True)).success
+    efforts = publisher(ros_node, wait_for, 'effort_commands')
+    for torque in (0.1, 0.2):                  # two answers to the one state paused on
+        efforts.publish(Float64MultiArray(data=[torque]))
+    assert wait_for(lambda: node.said('answer 2 to the state at t = 0.000000 s'), timeout=30.0)
+    output = node.stop()
+    assert '0 steps' in output and 'commands taken: 2' in output, output
+    assert '1 lockstep answers beyond lockstep_publishers' in output, output

@@ -4,7 +4,10 @@ After the node publishes the state stamped t_n it waits for ``publishers`` answe
 messages (``joint_commands``, ``effort_commands``) stamped t_n, or unstamped (stamp 0, which
 answers whatever state is current). A command stamped with another time answers a state that
 is gone (a controller that lags or restarted): it is dropped, counted and reported, so every
-step applies exactly the answers to its own state and the loop stays deterministic.
+step applies exactly the answers to its own state and the loop stays deterministic. An answer
+beyond ``publishers`` to one state (a controller answering the state again when it is
+republished, or more controllers than ``publishers``) still applies to that state's step, the
+latest command winning, but does not count towards the next state: it is counted as surplus.
 
 While it waits, the gate says when to publish the waiting state again (a controller that
 subscribed late with volatile QoS, or restarted, gets it) and when to log that it is waiting.
@@ -35,6 +38,7 @@ class LockstepGate:
         self.stamp_ns = 0
         self.answers = 0
         self.stale = 0          # commands dropped for answering another state, since start
+        self.surplus = 0        # answers beyond ``publishers`` to one state, since start
         self._since = self._published_at = self._reported_at = clock()
 
     def expect(self, stamp_ns: int) -> None:
@@ -45,11 +49,12 @@ class LockstepGate:
 
     def answer(self, stamp_ns: int) -> bool:
         """Count a command stamped ``stamp_ns`` (0: unstamped); False if it answers another
-        state (it is then stale: drop it)."""
+        state (it is then stale: drop it). One beyond ``publishers`` is counted as surplus."""
         if stamp_ns not in (0, self.stamp_ns):
             self.stale += 1
             return False
         self.answers += 1
+        self.surplus += self.answers > self.publishers
         return True
 
     @property

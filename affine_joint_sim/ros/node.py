@@ -201,6 +201,12 @@ class SimNode(Node):
                                      f'{self.gate.stamp_ns * 1e-9:.6f} s): dropped '
                                      f'({self.gate.stale} so far)', kind='stale')
                         return
+                    if self.gate.answers > self.gate.publishers:
+                        self._reject(name, f'answer {self.gate.answers} to the state at t = '
+                                     f'{self.gate.stamp_ns * 1e-9:.6f} s, lockstep_publishers '
+                                     f'is {self.gate.publishers}: it replaces the earlier '
+                                     'command for that step and answers no later state '
+                                     f'({self.gate.surplus} so far)', kind='surplus')
                     if self.gate.released:
                         self._wake.notify()
                 self.taken += 1
@@ -508,6 +514,7 @@ class SimNode(Node):
                 'angles': dict(zip(self.sim.joint_names, self.sim.angles.tolist())),
                 'taken': self.taken,
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
+                'surplus_answers': self.gate.surplus,
                 'bag': self.config['record'] or None,
                 'rotation_strain': float(self.sim.stats['rotation_strain']),
                 'recording_stopped': self.recording.stopped}

@@ -79,8 +79,11 @@ def print_summary(summary: dict) -> None:
     print('final angles [rad]: ' + ', '.join(f'{k} {v:.6f}'
                                               for k, v in summary['angles'].items()))
     dropped = {k: v for k, v in summary['dropped'].items() if v}
+    surplus = summary['surplus_answers']
     print(f'commands taken: {summary["taken"]}' + (
-        '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else ''))
+        '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else '') + (
+        f'; {surplus} lockstep answers beyond lockstep_publishers (applied to the state they '
+        'answered, not to the next)' if surplus else ''))
     print(f'largest ‖AAᵀ − I‖ of a moving body at the end: {summary["rotation_strain"]:.2g} '
           '(stats rotation_strain; viewers draw the nearest rotation)')
     if summary['bag']:
