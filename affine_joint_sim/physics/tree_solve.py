@@ -13,18 +13,25 @@ __all__ = ['build']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the tree solve for the types namespace ``t``."""
-    vec12, mat12, scalar = t.vec12, t.mat12, t.scalar
+    vec12, mat12 = t.vec12, t.mat12
     Model, Scratch = t.structs.Model, t.structs.Scratch
+    pivot_floor, zero = t.pivot_floor, t.zero
 
     @wp.func
     def cholesky(a: mat12):
-        """Lower factor L of a symmetric positive definite 12×12 matrix (a = L Lᵀ)."""
+        """Lower factor L of a symmetric positive (semi)definite 12×12 matrix (a = L Lᵀ). A
+        pivot below pivot_floor × the largest diagonal entry (a direction singular to rounding,
+        or made so by a Schur complement's cancellation) is raised to it."""
         low = mat12()
+        floor = zero
+        for j in range(12):
+            floor = wp.max(floor, wp.abs(a[j, j]))
+        floor = floor * pivot_floor
         for j in range(12):
             s = a[j, j]
             for k in range(j):
                 s -= low[j, k] * low[j, k]
-            d = wp.sqrt(wp.max(s, a[j, j] * scalar(1.0e-14)))
+            d = wp.sqrt(wp.max(s, floor))
             low[j, j] = d
             for i in range(j + 1, 12):
                 r = a[i, j]
