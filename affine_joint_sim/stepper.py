@@ -23,6 +23,7 @@ from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kerne
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
 from affine_joint_sim.physics.model import (SimulationWarning, build_model,
                                             largest_step_efforts)
+from affine_joint_sim.physics.newton import HALVINGS
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
 from affine_joint_sim.scene import Scene
 
@@ -39,7 +40,7 @@ _PROBLEMS = {      # by physics.fields.PROBLEM_NAMES
                      'reduce dt',
     'torque_dropped': 'a body is nearly singular (|det A| < 1e-6 ∏|a_r|): its joint torque '
                       'was dropped this step',
-    'line_search_failures': 'the line search found no decrease in 8 halvings',
+    'line_search_failures': f'the line search found no decrease in {HALVINGS} halvings',
 }
 _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_rejected')
 # Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU.

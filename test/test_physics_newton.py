@@ -1,5 +1,6 @@
-"""Newton (physics.newton): the warm start against a NumPy polar decomposition; where it
-stops when rounding, not the tolerance, limits an update."""
+"""Newton (physics.newton): the warm start against a NumPy polar decomposition; updates that
+follow turns against the matrix exponential; where it stops when rounding, not the tolerance,
+limits an update; near-massless links converge."""
 
 import numpy as np
 import pytest
@@ -7,7 +8,7 @@ import pytest
 from affine_joint_sim.chain import chain_scene
 from affine_joint_sim.physics.evaluate import Stages
 from affine_joint_sim.stepper import Stepper
-from helpers.physics import random_rotation
+from helpers.physics import arm_with_fingers, random_rotation
 from test_joints import every_joint_type
 
 
@@ -85,3 +86,75 @@ def test_a_tolerance_below_rounding_stops_at_the_rounding_floor(precision, tol):
     assert all(s['converged'] for s in stats)
     assert np.mean([s['newton_iterations'] for s in stats]) < 8
     assert np.abs(floor - reachable).max() < (1e-7 if precision == 'float64' else 2e-3)
+
+
+def _expm(m, terms=40):
+    """exp(m) by its Taylor series (3×3, |m| ≲ 1)."""
+    out, term = np.eye(3), np.eye(3)
+    for k in range(1, terms):
+        term = term @ m / k
+        out = out + term
+    return out
+
+
+def _skew(w):
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def test_an_update_that_turns_a_body_is_followed_on_its_rotation():
+    stages = Stages(every_joint_type())
+    rng = np.random.default_rng(11)
+    q, dq = stages.host.body_q0.copy(), np.zeros_like(stages.host.body_q0)
+    turns, strains = [], []
+    for b in range(stages.host.body_count):
+        a = random_rotation(rng) @ np.diag(1 + rng.uniform(-1e-3, 1e-3, 3))
+        q[b, 3:] = a.reshape(9)
+        w, e = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1e-3, 1e-3, (3, 3))
+        e = (e + e.T) / 2
+        dq[b, :3] = rng.uniform(-0.01, 0.01, 3)
+        dq[b, 3:] = ((_skew(w) + e) @ a).reshape(9)
+        turns.append(w)
+        strains.append(e)
+    moved, _ = stages.moved(q, dq)
+    for b in range(stages.host.body_count):
+        a = q[b, 3:].reshape(3, 3)
+        expected = _expm(_skew(turns[b])) @ (np.eye(3) + strains[b]) @ a
+        np.testing.assert_allclose(moved[b, 3:].reshape(3, 3), expected, atol=1e-13)
+        np.testing.assert_allclose(moved[b, :3], q[b, :3] + dq[b, :3], atol=1e-15)
+    # to first order the straight step: the difference shrinks with the square of the step
+    small = [np.abs(stages.moved(q, s * dq)[0] - (q + s * dq)).max() for s in (1e-2, 2e-2)]
+    assert small[1] / small[0] == pytest.approx(4.0, rel=1e-3)
+
+
+def test_the_full_step_turns_no_followed_body_by_more_than_half_a_radian():
+    stages = Stages(every_joint_type())
+    q, dq = stages.host.body_q0.copy(), np.zeros_like(stages.host.body_q0)
+    body = stages.free[0]
+    dq[body, 3:] = (_skew([0.0, 2.0, 0.0]) @ q[body, 3:].reshape(3, 3)).reshape(9)
+    assert stages.moved(q, dq)[1] == pytest.approx(0.25, rel=1e-12)
+    assert stages.moved(q, dq / 8)[1] == 1.0
+
+
+def test_turns_that_float32_does_not_resolve_are_not_followed():
+    # a 2 mg finger's rotational inertia (1e-12 kg·m²) is below float32's rounding of its
+    # rigidity: its turns are noise there and not followed (nor do they cap the step)
+    for precision, capped in (('float64', 0.5 / 2.0), ('float32', 1.0)):
+        stages = Stages(arm_with_fingers(precision))
+        q, dq = stages.host.body_q0.copy(), np.zeros_like(stages.host.body_q0)
+        finger = stages.free[-1]
+        dq[finger, 3:] = (_skew([2.0, 0.0, 0.0]) @ q[finger, 3:].reshape(3, 3)).reshape(9)
+        assert stages.moved(q, dq)[1] == pytest.approx(capped, rel=1e-6)
+
+
+def test_near_massless_links_converge():
+    # three 2 mg finger links at the tip of a 1 kg arm: their turns about their hinges are
+    # nearly free and the orthogonality energy fought the stretch of straight Newton steps,
+    # so every step ran to newton_max_iter (50 of 50) creeping a few milliradians an iteration
+    sim = Stepper(arm_with_fingers('float64'), on_problem=lambda message: None)
+    sim.set_torque('shoulder', 1.0)
+    iterations = []
+    for _ in range(50):
+        sim.step()
+        assert sim.stats['converged']
+        iterations.append(sim.stats['newton_iterations'])
+    assert max(iterations) <= 8

@@ -8,6 +8,7 @@ import pytest
 
 from affine_joint_sim import Scene, Stepper
 from affine_joint_sim.physics.model import SimulationWarning
+from helpers.physics import arm_with_fingers
 
 SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
 PACKAGED = sorted(p.stem for p in SCENES.glob('*.yaml'))
@@ -312,33 +313,16 @@ def test_float32_tracks_float64():
     assert single.angles[0] == pytest.approx(double.angles[0], abs=2e-3)
 
 
-def _arm_with_fingers(precision):
-    """A 1 kg arm on a hinge with three 2 mg finger links (2.7 mm cubes) in series at its tip,
-    hinged like a URDF's joints (axis points 0.1 m either side): placeholder masses as NAO's."""
-    bodies = [{'name': 'base', 'shape': {'box': [0.2, 0.2, 0.2]}, 'density': 1000.0,
-               'fixed': True},
-              {'name': 'arm', 'shape': {'box': [0.05, 0.05, 0.5]}, 'mass': 1.0,
-               'position': [0.0, 0.0, -0.25]}]
-    joints = [{'name': 'shoulder', 'parent': 'base', 'child': 'arm', 'x0': [-0.1, 0.0, 0.0],
-               'x1': [0.1, 0.0, 0.0]}]
-    for k in range(3):
-        z = -0.5 - 0.003 * k
-        bodies.append({'name': f'finger{k}', 'shape': {'box': [0.0027] * 3}, 'mass': 2e-6,
-                       'position': [0.0, 0.0, z - 0.0015]})
-        joints.append({'name': f'knuckle{k}', 'parent': bodies[-2]['name'],
-                       'child': f'finger{k}', 'x0': [-0.1, 0.0, z], 'x1': [0.1, 0.0, z]})
-    return Scene.from_dict({'name': 'fingers', 'dt': 0.01, 'solver': {'precision': precision},
-                            'bodies': bodies, 'joints': joints})
-
-
 def test_float32_runs_a_robot_with_near_massless_links():
     # the Schur complement of a finger's stiff hinge cancels a parent pivot to rounding; float32
-    # factored it into NaN and rejected every step (the robot stood frozen)
-    single, double = (Stepper(_arm_with_fingers(p), on_problem=lambda message: None)
+    # factored it into NaN and rejected every step (the robot stood frozen). Then the fingers'
+    # turns, which float32 does not resolve, spun them until joints aliased (20 steps of 100
+    # rejected, the shoulder 0.70 rad instead of 0.29): those turns are no longer followed
+    single, double = (Stepper(arm_with_fingers(p), on_problem=lambda message: None)
                       for p in ('float32', 'float64'))
     for sim in (single, double):
         sim.set_torque('shoulder', 1.0)
-        for _ in range(50):
+        for _ in range(100):
             sim.step()
             assert not sim.stats['step_rejected']
     assert single.angles[0] == pytest.approx(double.angles[0], abs=1e-4)

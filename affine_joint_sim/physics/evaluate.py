@@ -18,7 +18,7 @@ __all__ = ['Stages']
 _PROBES = {}
 
 
-ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START = range(4)
+ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START, MOVED = range(5)
 
 
 def _probe_kernel(t):
@@ -33,7 +33,7 @@ def _probe_kernel(t):
                                                    t.solve_tree)
     joint_raw_coordinate, joint_coordinate_gradients = (t.joint_raw_coordinate,
                                                         t.joint_coordinate_gradients)
-    warm_start = t.warm_start
+    warm_start, moved, full_step = t.warm_start, t.moved, t.full_step
     one = t.one
 
     @wp.kernel(module='unique', enable_backward=False)
@@ -53,9 +53,14 @@ def _probe_kernel(t):
                 g_parent, g_child = joint_coordinate_gradients(model, q, 0, k)
                 parent_gradient_out[k] = g_parent
                 child_gradient_out[k] = g_child
-        else:
+        elif which == WARM_START:
             for b in range(q.shape[1]):
                 q_out[b] = warm_start(q[0, b], scratch.q_n[0, b])
+        else:
+            for b in range(q.shape[1]):
+                scratch.q_start[0, b] = q[0, b]
+                q_out[b] = moved(q[0, b], scratch.dq[0, b], one)
+            energy_out[0] = full_step(model, scratch, 0)
 
     _PROBES[t.name] = probe
     return probe
@@ -138,6 +143,14 @@ class Stages:
         self._launch(COORDINATES)
         n = self.host.joint_count
         return tuple(a.numpy()[:n].copy() for a in self._outputs[1:4])
+
+    def moved(self, q, dq):
+        """(q + dq with every body's turn followed, the line search's full step α ≤ 1 for dq
+        on the bodies whose turns the precision resolves)."""
+        self._q.assign(np.asarray(q)[None])
+        self.scratch.dq.assign(np.asarray(dq)[None])
+        self._launch(MOVED)
+        return self._outputs[4].numpy().copy(), float(self._outputs[0].numpy()[0])
 
     def warm_start(self, q_tilde, q_n):
         """The Newton start of every body from the prediction q_tilde and the last state q_n."""

@@ -33,6 +33,8 @@ def types_for(scalar) -> SimpleNamespace:
         inv_sqrt2=scalar(1.0 / math.sqrt(2.0)),
         # relative rounding of a sum of energy terms: the line search's "no increase"
         energy_roundoff=scalar(64.0 * eps),
+        # one rounding unit (machine ε)
+        unit_roundoff=scalar(eps),
         # relative rounding of a Newton update: below this times the scene's extent [m] (this
         # alone for the dimensionless affine entries) a direction is rounding noise
         update_roundoff=scalar(16.0 * eps),

@@ -1,4 +1,5 @@
-"""Random non-rigid states of a packaged scene for derivative checks of the physics stages."""
+"""Physics test helpers: random non-rigid states of a packaged scene for derivative checks of
+the physics stages, and scenes that stress the solver."""
 
 from pathlib import Path
 
@@ -56,3 +57,22 @@ class Probe:
                     - self.newton_system(self.perturbed(d, -h))[0]) / (2 * h)
                    for d in range(12 * len(self.free))]
         return np.array(columns).T
+
+
+def arm_with_fingers(precision):
+    """A 1 kg arm on a hinge with three 2 mg finger links (2.7 mm cubes) in series at its tip,
+    hinged like a URDF's joints (axis points 0.1 m either side): placeholder masses as NAO's."""
+    bodies = [{'name': 'base', 'shape': {'box': [0.2, 0.2, 0.2]}, 'density': 1000.0,
+               'fixed': True},
+              {'name': 'arm', 'shape': {'box': [0.05, 0.05, 0.5]}, 'mass': 1.0,
+               'position': [0.0, 0.0, -0.25]}]
+    joints = [{'name': 'shoulder', 'parent': 'base', 'child': 'arm', 'x0': [-0.1, 0.0, 0.0],
+               'x1': [0.1, 0.0, 0.0]}]
+    for k in range(3):
+        z = -0.5 - 0.003 * k
+        bodies.append({'name': f'finger{k}', 'shape': {'box': [0.0027] * 3}, 'mass': 2e-6,
+                       'position': [0.0, 0.0, z - 0.0015]})
+        joints.append({'name': f'knuckle{k}', 'parent': bodies[-2]['name'],
+                       'child': f'finger{k}', 'x0': [-0.1, 0.0, z], 'x1': [0.1, 0.0, z]})
+    return Scene.from_dict({'name': 'fingers', 'dt': 0.01, 'solver': {'precision': precision},
+                            'bodies': bodies, 'joints': joints})
