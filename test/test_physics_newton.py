@@ -2,11 +2,14 @@
 follow turns against the matrix exponential; where it stops when rounding, not the tolerance,
 limits an update; near-massless links converge."""
 
+import warnings
+
 import numpy as np
 import pytest
 
 from affine_joint_sim.chain import chain_scene
 from affine_joint_sim.physics.evaluate import Stages
+from affine_joint_sim.physics.model import SimulationWarning
 from affine_joint_sim.stepper import Stepper
 from helpers.physics import arm_with_fingers, random_rotation
 from test_joints import every_joint_type
@@ -135,11 +138,20 @@ def test_the_full_step_turns_no_followed_body_by_more_than_half_a_radian():
     assert stages.moved(q, dq / 8)[1] == 1.0
 
 
-def test_turns_that_float32_does_not_resolve_are_not_followed():
+def test_turns_that_float32_does_not_resolve_are_not_followed_and_said():
     # a 2 mg finger's rotational inertia (1e-12 kg·m²) is below float32's rounding of its
     # rigidity: its turns are noise there and not followed (nor do they cap the step)
-    for precision, capped in (('float64', 0.5 / 2.0), ('float32', 1.0)):
-        stages = Stages(arm_with_fingers(precision))
+    scene = arm_with_fingers('float32')
+    arm = scene.model_copy(update={'bodies': scene.bodies[:2], 'joints': scene.joints[:1]})
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')      # the 1 kg arm alone, and the fingers in float64
+        Stages(arm)
+        float64 = Stages(arm_with_fingers('float64'))
+    with pytest.warns(SimulationWarning, match="float32 does not resolve the rotational "
+                      "inertia of 3 moving bodies \\('finger0', 'finger1', 'finger2'\\)"):
+        float32 = Stages(scene)
+    assert list(float32.host.body_resolves_turns) == [1, 1, 0, 0, 0]
+    for stages, capped in ((float64, 0.5 / 2.0), (float32, 1.0)):
         q, dq = stages.host.body_q0.copy(), np.zeros_like(stages.host.body_q0)
         finger = stages.free[-1]
         dq[finger, 3:] = (_skew([2.0, 0.0, 0.0]) @ q[finger, 3:].reshape(3, 3)).reshape(9)

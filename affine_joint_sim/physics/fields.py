@@ -65,6 +65,8 @@ FIELDS = _fields('model', [
     ('body_second_moment', 'vec3', B, 'kg·m^2', 'diagonal of S about the COM, body axes'),
     ('body_ortho_coeff', 'scalar', B, 'J', 'κ·v̄ of the orthogonality energy'),
     ('body_half_extent', 'vec3', B, 'm', 'half box extents: corners of the convergence test'),
+    ('body_resolves_turns', 'int32', B, '-', '1: the precision resolves its rotational inertia '
+     'against its rigidity, and Newton follows its turns'),
     ('body_joint_hessian', 'mat12', B, 'kg', 'Σ of the joints\' constant diagonal blocks'),
     ('elim_order', 'int32', F, '-', 'free bodies leaves-first (fill-in free elimination)'),
     ('elim_parent', 'int32', B, '-', 'tree parent in the elimination, -1 for a root'),

@@ -128,19 +128,6 @@ def build(t) -> SimpleNamespace:
                      n[1, 2], n[2, 0], n[2, 1], n[2, 2])
 
     @wp.func
-    def resolves_turns(model: Model, b: int):
-        """Whether this precision resolves body b's rotational inertia: its smallest second
-        moment above one rounding unit of its Hessian block's largest diagonal entry (the
-        orthogonality energy's 8 dt² κ v̄ or its largest second moment). A 2 mg finger link
-        (1e-12 kg·m² against 1.6e-3) is resolved in float64, not in float32, where its turns
-        are rounding noise and following them spins it; a 1 kg, 0.5 m link is resolved in
-        both (ratio 2e-6)."""
-        s = model.body_second_moment[b]
-        stiffest = wp.max(wp.max(wp.max(s[0], s[1]), s[2]),
-                          scalar(8.0) * model.dt * model.dt * model.body_ortho_coeff[b])
-        return wp.min(wp.min(s[0], s[1]), s[2]) > unit_roundoff * stiffest
-
-    @wp.func
     def full_step(model: Model, scratch: Scratch, env: int):
         """The step α ≤ 1 at which no body whose turns are followed turns by more than
         max_turn: an update that asks for more (far from the solution) is not trusted along
@@ -148,7 +135,7 @@ def build(t) -> SimpleNamespace:
         turn = zero
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
-            if resolves_turns(model, b):
+            if model.body_resolves_turns[b] != 0:
                 w, e, a = rates(scratch.q_start[env, b], scratch.dq[env, b])
                 turn = wp.max(turn, wp.length(w))
         alpha = one
@@ -160,10 +147,10 @@ def build(t) -> SimpleNamespace:
     def move(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, alpha: scalar,
              turning: int):
         """q = q_start + α dq on the free bodies; with ``turning``, turns followed on the bodies
-        whose turns the precision resolves (see ``moved`` and ``resolves_turns``)."""
+        whose turns the precision resolves (see ``moved``; model.body_resolves_turns)."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
-            if turning != 0 and resolves_turns(model, b):
+            if turning != 0 and model.body_resolves_turns[b] != 0:
                 q[env, b] = moved(scratch.q_start[env, b], scratch.dq[env, b], alpha)
             else:
                 q[env, b] = scratch.q_start[env, b] + alpha * scratch.dq[env, b]
@@ -277,5 +264,5 @@ def build(t) -> SimpleNamespace:
 
     return SimpleNamespace(warm_start=warm_start, update_size=update_size, extent=extent,
                            rotation_of=rotation_of, rates=rates, moved=moved,
-                           resolves_turns=resolves_turns, full_step=full_step, move=move,
+                           full_step=full_step, move=move,
                            line_search=line_search, newton=newton)
