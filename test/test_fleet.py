@@ -115,6 +115,28 @@ def test_a_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_path)
     assert len(rows) == len(SAMPLES) + 8 and all(r['status'] == 'pass' for r in rows)
 
 
+def test_a_pool_that_breaks_while_jobs_are_handed_out_still_runs_every_job(monkeypatch):
+    # under load a spawned worker can die (here: the pool reports it) before every job is
+    # submitted; submit then raises instead of a future doing so, which ended the command
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    from affine_joint_sim.fleet.executors import run_pool
+
+    real, calls = ProcessPoolExecutor.submit, []
+
+    def submit(self, fn, /, *args, **kwargs):
+        calls.append(fn)
+        if len(calls) == 3:
+            raise BrokenProcessPool('A child process terminated abruptly')
+        return real(self, fn, *args, **kwargs)
+
+    monkeypatch.setattr(ProcessPoolExecutor, 'submit', submit)
+    jobs, said = [{'job': k} for k in range(5)], []
+    assert run_pool(dict, jobs, workers=2, say=said.append) == jobs
+    assert said == ['a worker process died: 3 unfinished job(s) run again on fresh workers']
+
+
 def test_local_ray_gives_the_same_report(fleet, tmp_path):
     pytest.importorskip('ray')
     _, serial = report(tmp_path, 'serial', fleet, '--workers', 1)

@@ -47,7 +47,15 @@ def run_pool(function, jobs: list[dict], workers: int, progress=None, say=print)
         broken = []
         with ProcessPoolExecutor(max_workers=min(workers, len(pending)),
                                  mp_context=context) as pool:
-            futures = {pool.submit(function, **jobs[i]): i for i in pending}
+            futures = {}
+            for n, i in enumerate(pending):
+                try:
+                    futures[pool.submit(function, **jobs[i])] = i
+                except BrokenProcessPool:   # a worker died while jobs were still handed out
+                    broken = pending[n:]
+                    break
+            for i in broken:
+                attempts[i] += 1
             for future in as_completed(futures):
                 i = futures[future]
                 attempts[i] += 1
