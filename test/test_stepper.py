@@ -315,9 +315,9 @@ def test_float32_tracks_float64():
 
 def test_float32_runs_a_robot_with_near_massless_links():
     # the Schur complement of a finger's stiff hinge cancels a parent pivot to rounding; float32
-    # factored it into NaN and rejected every step (the robot stood frozen). Then the fingers'
-    # turns, which float32 does not resolve, spun them until joints aliased (20 steps of 100
-    # rejected, the shoulder 0.70 rad instead of 0.29): those turns are no longer followed
+    # factored it into NaN and rejected every step (the robot stood frozen); later the fingers
+    # spun until joints aliased (20 steps of 100 rejected, the shoulder 0.70 rad instead of
+    # 0.29). The fingers' own steps still need not converge in float32 (the load says so)
     with pytest.warns(SimulationWarning, match='float32 does not resolve'):
         single = Stepper(arm_with_fingers('float32'), on_problem=lambda message: None)
     double = Stepper(arm_with_fingers('float64'), on_problem=lambda message: None)

@@ -288,7 +288,7 @@ def main(argv=None) -> int:
         try:
             with np.load(args.reference) as data:
                 ref = {name: data[name][:args.steps] for name in data.files}
-        except (OSError, ValueError, EOFError) as exc:
+        except (OSError, ValueError, EOFError, TypeError) as exc:   # TypeError: a .npy
             parser.error(f'--reference {args.reference}: not a reference written by the '
                          f'reference phase ({exc})')
         if min(len(r) for r in ref.values()) < args.steps:

@@ -73,7 +73,8 @@ def run_pool(function, jobs: list[dict], workers: int, progress=None, say=print)
             if attempts[i] <= RETRIES:
                 pending.append(i)
             else:
-                results[i] = LostJob(jobs[i], f'its worker process died {attempts[i]} times')
+                results[i] = LostJob(jobs[i], f'its worker pool broke {attempts[i]} times '
+                                     'before the job finished (a worker process died)')
                 if progress:
                     progress(results[i])
         if pending:

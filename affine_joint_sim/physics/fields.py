@@ -56,7 +56,8 @@ FIELDS = _fields('model', [
     ('newton_tol', 'scalar', (), 'm/s',
      'update displacement / dt at convergence (or its rounding floor, if larger)'),
     ('newton_max_iter', 'int32', (), '-', 'Newton iterations per step at most'),
-    ('line_search', 'int32', (), '-', '1: backtracking line search on E'),
+    ('line_search', 'int32', (), '-', '1: line search on E (a turn-following trial, then '
+     'backtracking); 0: the turn-following step, capped, unchecked'),
     ('warm_start', 'int32', (), '-', '1: Newton starts from q̃ with rigid A (polar rotation)'),
     ('state_coupling', 'int32', (), '-', '1: some joint term depends on the state, so the tree '
      'coupling blocks are assembled per environment each iteration (else model.elim_offdiag)'),

@@ -313,11 +313,14 @@ def _warn_com_on_axis(scene, fixed, joints):
 
 
 def _resolves_turns(scene, second_moment, ortho_coeff) -> np.ndarray:
-    """Per body, 1 if the scene's precision resolves its rotational inertia: its smallest
-    second moment above one rounding unit (ε) of its Hessian block's stiffest diagonal entry,
-    the orthogonality energy's 8 dt² κ v̄ or its largest second moment. A 2 mg, 2.7 mm link
-    (1e-12 kg·m² against 1.6e-3) passes in float64, not in float32; a 1 kg, 0.5 m link passes
-    in both (ratio 2e-6)."""
+    """Per body, 1 if the scene's precision resolves its rotational inertia against its
+    rigidity: its smallest second moment [kg·m²] above one rounding unit (ε) of its largest
+    second moment or of the orthogonality energy's 8 dt² κ v̄ [J·s²]. A 2 mg, 2.7 mm link
+    (1e-12 against 1.6e-3) passes in float64, not in float32; a 1 kg, 0.5 m link passes in
+    both (2e-6). Joints are left out: their stiff entries constrain turns (a prismatic finger's
+    all of them) rather than leave them free, and counting them flagged grippers that converge
+    well in float32; a light link on a heavy parent's hinge can therefore pass and still
+    converge badly in float32 (the per-step warning then says so)."""
     eps = np.finfo(np.float32 if scene.solver.precision == 'float32' else np.float64).eps
     stiffest = np.maximum(second_moment.max(axis=1), 8.0 * scene.dt ** 2 * ortho_coeff)
     return (second_moment.min(axis=1) > eps * stiffest).astype(np.int32)

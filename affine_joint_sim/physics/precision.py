@@ -35,10 +35,11 @@ def types_for(scalar) -> SimpleNamespace:
         energy_roundoff=scalar(64.0 * eps),
         # one rounding unit (machine ε)
         unit_roundoff=scalar(eps),
-        # relative rounding of a Newton update: below this times the scene's extent [m] (this
-        # alone for the dimensionless affine entries) a direction is rounding noise
+        # relative rounding of a Newton update: below this times the scene's extent [m] (for
+        # the dimensionless affine entries: times extent / shortest lever) it is rounding noise
         update_roundoff=scalar(16.0 * eps),
-        # smallest Cholesky pivot relative to its diagonal entry: a block singular to rounding
+        # smallest Cholesky pivot relative to its block's largest diagonal entry: a block
+        # singular to rounding
         # (a near-massless link's rotation) is regularised, not factored into NaN
         pivot_floor=scalar(max(1.0e-14, 16.0 * eps)),
         # ‖AAᵀ − I‖² of a rotation rounded to this precision stays below this

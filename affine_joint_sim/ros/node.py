@@ -204,8 +204,8 @@ class SimNode(Node):
                     if self.gate.answers > self.gate.publishers:
                         self._reject(name, f'answer {self.gate.answers} to the state at t = '
                                      f'{self.gate.stamp_ns * 1e-9:.6f} s, lockstep_publishers '
-                                     f'is {self.gate.publishers}: it replaces the earlier '
-                                     'command for that step and answers no later state '
+                                     f'is {self.gate.publishers}: it applies to that step '
+                                     '(latest per joint wins) and answers no later state '
                                      f'({self.gate.surplus} so far)', kind='surplus')
                     if self.gate.released:
                         self._wake.notify()
