@@ -39,8 +39,8 @@ def types_for(scalar) -> SimpleNamespace:
         # the dimensionless affine entries: times extent / shortest lever) it is rounding noise
         update_roundoff=scalar(16.0 * eps),
         # smallest Cholesky pivot relative to its block's largest diagonal entry: a block
-        # singular to rounding
-        # (a near-massless link's rotation) is regularised, not factored into NaN
+        # singular to rounding (a near-massless link's rotation) is regularised, not factored
+        # into NaN
         pivot_floor=scalar(max(1.0e-14, 16.0 * eps)),
         # ‖AAᵀ − I‖² of a rotation rounded to this precision stays below this
         rigid_strain=scalar((16.0 * eps) ** 2))
