@@ -28,7 +28,7 @@ define install_project
 	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test,bench]'
 endef
 
-.PHONY: venv run test bench bags replay gallery gpu-prep lock clean
+.PHONY: venv run lint test bench bags replay gallery gpu-prep lock clean
 
 venv: $(STAMP)
 
@@ -71,7 +71,11 @@ gallery: venv
 	$(VENV)/bin/affine-joint-sim render results/gallery/arm6 --out docs/arm6.gif $(GALLERY_RENDER) \
 	  --view=-50,25
 
-test: venv
+# The linter (rules in ruff.toml) first: it takes well under a second.
+lint: venv
+	$(VENV)/bin/ruff check .
+
+test: lint
 	$(PY) -m pytest -q test
 
 bench: venv

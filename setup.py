@@ -35,10 +35,11 @@ setup(
         'rosbags>=0.11,<0.12',
         'pyyaml',
         'pydantic>=2',
-        'yourdfpy>=0.0.56,<0.1',    # URDF robots (design.md §10); never loads meshes here
+        'yourdfpy>=0.0.56,<0.1',    # URDF robots (README.md#robots-from-urdf); meshes never loaded
     ],
     extras_require={
-        'test': ['pytest', 'mcap', 'mcap-ros2-support'],   # bags as Foxglove reads them
+        'test': ['pytest', 'mcap', 'mcap-ros2-support',   # bags as Foxglove reads them
+                 'ruff'],                                  # the linter `make test` runs first
         'bench': ['matplotlib'],    # plots of `make bench`
         'compare': ['mujoco'],      # MuJoCo as a reference in `make bench` (optional)
         'reference': ['pin>=3,<5'],   # Pinocchio checks the URDF robots' reference (optional)

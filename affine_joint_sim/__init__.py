@@ -1,7 +1,8 @@
-"""affine_joint_sim: affine-body revolute-joint simulation with a ROS 2 (Jazzy) front end.
+"""affine_joint_sim: affine-body robot simulation with a ROS 2 (Jazzy) front end.
 
-The physics (``Scene``, ``Stepper``) needs no ROS; ``affine_joint_sim.ros`` wraps it in an rclpy
-node. Names are imported lazily so that light entry points (CLI helpers) do not pay for Warp.
+Bodies are affine bodies joined by revolute, prismatic and fixed joints. The physics
+(``Scene``, ``Stepper``) needs no ROS; ``affine_joint_sim.ros`` wraps it in an rclpy node.
+Names are imported lazily so that light entry points (CLI helpers) do not pay for Warp.
 """
 
 __all__ = ['Scene', 'SceneError', 'Stepper']

@@ -5,8 +5,7 @@ and the extremes suite (a long chain falling). Every hinge turns about world x; 
 z = -k·link_length … -(k+1)·link_length at t = 0, so the chain hangs straight down.
 """
 
-import math
-
+from affine_joint_sim import portable_math as pm
 from affine_joint_sim.scene import Scene
 
 __all__ = ['chain_scene']
@@ -31,7 +30,7 @@ def chain_scene(links: int, *, link_length: float = 0.5, link_mass: float = 1.0,
     """
     if int(links) != links or links < 1:
         raise ValueError(f'links must be a positive integer, got {links!r}')
-    down = (0.0, math.sin(angle), -math.cos(angle))   # unit vector along the chain (body -z)
+    down = (0.0, pm.sin(angle), -pm.cos(angle))   # unit vector along the chain (body -z)
 
     def point(s):
         return [0.0, s * down[1], s * down[2]]

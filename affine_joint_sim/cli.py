@@ -1,4 +1,4 @@
-"""The ``affine-joint-sim`` command line (design.md §6).
+"""The ``affine-joint-sim`` command line (usage: README.md; docs/architecture.md#command-line).
 
 Subcommands: ``run`` (the node), ``torque`` / ``enable`` / ``echo`` (talk to a running node
 without the ``ros2`` CLI), ``controller`` (the demo PD controller), ``demo`` (``make run``),
@@ -184,8 +184,9 @@ def _add_gains(parser):
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='affine-joint-sim',
-        description='Affine-body revolute-joint simulator: ROS 2 Jazzy node and tools. '
-                    'Run with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (the Makefile sets it).')
+        description='Affine-body simulator of robots with revolute, prismatic and fixed '
+                    'joints: ROS 2 Jazzy node and tools. Run with '
+                    'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (the Makefile sets it).')
     commands = parser.add_subparsers(dest='command', required=True)
     _add_run(commands)
 

@@ -1,5 +1,5 @@
 """Host views of a Stepper's device arrays: commands uploaded when changed, outputs downloaded
-when read (design.md §8).
+when read (docs/architecture.md#host-mirrors).
 
 On the CPU a host view is the device array itself and nothing moves. On a GPU every array has
 a pinned host mirror: ``Uploads`` copies the command mirrors to the device before a step only

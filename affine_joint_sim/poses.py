@@ -7,7 +7,7 @@ rotation factor). World frame, homogeneous 4×4 transforms [[R, p], [0, 1]] in m
 
 import numpy as np
 
-from affine_joint_sim.physics.model import rotation_matrix
+from affine_joint_sim.rotations import rotation_matrix
 
 __all__ = ['rigid_transforms', 'LinkFrames']
 

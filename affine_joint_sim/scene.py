@@ -1,4 +1,4 @@
-"""Scene schema: loading, validation and serialisation of scene files (design.md §3).
+"""Scene schema: loading, validation and serialisation of scene files (README.md#scenes).
 
 A scene is YAML (or a dict) in SI units with world z up (REP 103). Every bad input fails at
 load with a ``SceneError`` that names the source, the key path (``joints[1].parent``) and what
@@ -14,9 +14,11 @@ import yaml
 from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr,
                       ValidationError, model_validator)
 
-__all__ = ['Scene', 'SceneError', 'Body', 'Joint', 'Limit', 'Drive', 'Shape', 'Solver',
-           'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh', 'topic_token',
-           'validation_report']
+from affine_joint_sim.physics.joint_kinds import JOINT_KIND_NAMES, joint_kind
+
+__all__ = ['Scene', 'SceneSettings', 'SceneError', 'StrictModel', 'Body', 'Joint', 'Limit',
+           'Drive', 'Shape', 'Solver', 'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh',
+           'topic_token', 'validation_report']
 
 # Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
 # names use topic_token(name).
@@ -47,24 +49,27 @@ class SceneError(ValueError):
     """A scene that cannot be loaded; the message lists every problem with its key path."""
 
 
-class _Strict(BaseModel):
+class StrictModel(BaseModel):
+    """Base of every model read from a user's file (scenes, a URDF scene's overrides, sweep
+    specs): an unknown key, NaN or Inf is an error; a validated model is frozen."""
+
     model_config = ConfigDict(extra='forbid', allow_inf_nan=False, frozen=True)
 
 
-class Cylinder(_Strict):
+class Cylinder(StrictModel):
     """Solid cylinder whose axis is the body z axis [m]."""
 
     radius: PositiveFloat
     length: PositiveFloat
 
 
-class Sphere(_Strict):
+class Sphere(StrictModel):
     """Solid sphere [m]."""
 
     radius: PositiveFloat
 
 
-class Shape(_Strict):
+class Shape(StrictModel):
     """Exactly one primitive: ``box`` (full side lengths [m]), ``cylinder`` or ``sphere``."""
 
     box: tuple[PositiveFloat, PositiveFloat, PositiveFloat] | None = None
@@ -84,7 +89,7 @@ class Shape(_Strict):
         return next(k for k in ('box', 'cylinder', 'sphere') if getattr(self, k) is not None)
 
 
-class Orientation(_Strict):
+class Orientation(StrictModel):
     """Initial orientation, world frame: ``rpy`` [rad] (fixed-axis x-y-z, REP 103) or
     ``quat_xyzw``."""
 
@@ -103,8 +108,8 @@ class Orientation(_Strict):
         return self
 
 
-class Body(_Strict):
-    """An affine body; its rest frame is centred at its centre of mass (physics_spec preface §1).
+class Body(StrictModel):
+    """An affine body; its rest frame is centred at its centre of mass (docs/physics.md#mass).
 
     Its mass properties come from ``shape`` with ``density`` or ``mass``, or from ``mass`` and
     ``inertia``: the principal moments of inertia [kg·m²] about the centre of mass, the body
@@ -143,7 +148,7 @@ class Body(_Strict):
         return self
 
 
-class Frame(_Strict):
+class Frame(StrictModel):
     """A named frame rigidly attached to a body (a URDF link frame), its pose in the body's
     frame: ``position`` [m] and ``orientation``."""
 
@@ -153,7 +158,7 @@ class Frame(_Strict):
     orientation: Orientation | None = None
 
 
-class Mesh(_Strict):
+class Mesh(StrictModel):
     """A mesh file drawn by viewers (never used by the physics): ``uri`` as the URDF gives it
     (``package://``, ``file://`` or a path), ``path`` the file found for it on this machine
     (None: not found, drawn as ``fallback``, a box [m]), ``scale`` per axis."""
@@ -164,7 +169,7 @@ class Mesh(_Strict):
     fallback: tuple[PositiveFloat, PositiveFloat, PositiveFloat] = (0.05, 0.05, 0.05)
 
 
-class Geometry(_Strict):
+class Geometry(StrictModel):
     """What a visual draws: exactly one of ``box``, ``cylinder``, ``sphere`` (as a Shape) or
     ``mesh``."""
 
@@ -190,7 +195,7 @@ class Geometry(_Strict):
 _GEOMETRY_KINDS = ('box', 'cylinder', 'sphere', 'mesh')
 
 
-class Visual(_Strict):
+class Visual(StrictModel):
     """A shape viewers draw on a body (a URDF ``<visual>``): its pose in the body's frame
     (``position`` [m], ``orientation``), its geometry and its RGBA colour (0–1; None: the
     palette's colour of the body)."""
@@ -202,7 +207,7 @@ class Visual(_Strict):
     color: tuple[Number, Number, Number, Number] | None = None
 
 
-class Limit(_Strict):
+class Limit(StrictModel):
     """Joint limit (UID 670 revolute [rad], UID 669 prismatic [m]) on the reported coordinate:
     a cubic penalty inside the implicit step, s((x−u)/(u−l))³ above u, s((l−x)/(u−l))³ below l
     (s|x−l|³ when u = l); its physical stiffness scales with 1/dt² like the joint's."""
@@ -218,7 +223,7 @@ class Limit(_Strict):
         return self
 
 
-class Drive(_Strict):
+class Drive(StrictModel):
     """Position drive (UID 19 revolute; its prismatic analogue): a spring K/2 (x − target)²
     inside the implicit step, K = strength_ratio (m_P + m_C) (physical stiffness K/dt²)."""
 
@@ -227,14 +232,14 @@ class Drive(_Strict):
     enabled: bool = True
 
 
-class Joint(_Strict):
+class Joint(StrictModel):
     """A joint: ``revolute`` (UID 18, torque UID 668), ``prismatic`` (UID 20, force UID 667)
     or ``fixed`` (UID 25). ``torque`` is N·m for revolute and N for prismatic joints.
     ``initial_position`` is the coordinate it reports at t = 0 [rad | m] (the bodies stand
     there: a URDF's joint coordinates); limits, drive targets and reports share its origin."""
 
     name: Name
-    type: Literal['revolute', 'prismatic', 'fixed'] = 'revolute'
+    type: Literal[JOINT_KIND_NAMES] = 'revolute'
     parent: str
     child: str
     x0: Vec3 | None = None
@@ -258,7 +263,8 @@ class Joint(_Strict):
         # keys set away from their defaults (a dumped scene repeats the defaults)
         given = {key for key in self.model_fields_set
                  if getattr(self, key) != type(self).model_fields[key].default}
-        if self.type == 'fixed':
+        kind = joint_kind(self.type)
+        if not kind.takes_axis:
             extra = sorted(given & _MOVABLE_KEYS)
             if extra:
                 raise ValueError(f'a fixed joint welds its bodies: it takes no {", ".join(extra)}'
@@ -268,7 +274,7 @@ class Joint(_Strict):
         if missing:
             raise ValueError(f'a {self.type} joint needs {" and ".join(missing)} '
                              '(two world points on its axis at t = 0)')
-        if self.type == 'prismatic':
+        if not kind.periodic:
             extra = sorted(given & {'torque_model', 'angle_mode'})
             if extra:
                 raise ValueError(f'{", ".join(extra)} applies to revolute joints only')
@@ -279,8 +285,8 @@ _MOVABLE_KEYS = {'x0', 'x1', 'torque', 'enabled', 'torque_model', 'angle_mode', 
                  'limit', 'damping', 'drive', 'initial_position'}
 
 
-class Solver(_Strict):
-    """Speed/accuracy knobs (physics_spec preface §2, §7)."""
+class Solver(StrictModel):
+    """Speed/accuracy knobs (docs/physics.md#solver-settings)."""
 
     integrator: Literal['bdf1', 'bdf2'] = 'bdf2'
     newton_tol: PositiveFloat = 1.0e-4
@@ -290,14 +296,24 @@ class Solver(_Strict):
     precision: Literal['float64', 'float32'] = 'float64'
 
 
-class Scene(_Strict):
-    """A validated scene. Build with ``Scene.from_yaml(path)`` or ``Scene.from_dict(d)``."""
+SceneName = Annotated[str, Field(min_length=1)]
 
-    name: Annotated[str, Field(min_length=1)] = 'scene'
+
+class SceneSettings(StrictModel):
+    """A scene's settings beside its bodies and joints: ``name``, time step ``dt`` [s],
+    ``gravity`` [m/s², world frame] and ``solver``. A scene YAML gives them at its top level,
+    beside ``bodies`` (``Scene``) or beside ``urdf:`` (``urdf.UrdfOptions``)."""
+
+    name: SceneName = 'scene'
     # below 1 µs the stamps (integer ns per step) would stop resolving a step
     dt: Annotated[Number, Field(ge=1.0e-6)] = 0.01
     gravity: Vec3 = (0.0, 0.0, -9.81)
     solver: Solver = Solver()
+
+
+class Scene(SceneSettings):
+    """A validated scene. Build with ``Scene.from_yaml(path)`` or ``Scene.from_dict(d)``."""
+
     bodies: Annotated[list[Body], Field(min_length=1)]
     joints: list[Joint] = []
     frames: list[Frame] = []
@@ -319,11 +335,10 @@ class Scene(_Strict):
 
     @classmethod
     def from_urdf(cls, path, **overrides) -> 'Scene':
-        """A robot from a URDF file (design.md §10), with the overrides of a scene YAML's
+        """A URDF robot (README.md#robots-from-urdf), with the overrides of a scene YAML's
         ``urdf:`` entry (``name``, ``dt``, ``gravity``, ``solver``, ``fixed_base``,
         ``merge_fixed``, ``initial_positions``, ``package_paths``, ``joints``)."""
-        from affine_joint_sim.urdf import scene_from_urdf
-        return scene_from_urdf(cls, Path(path), overrides, source=str(path))
+        return cls._from_urdf(Path(path), overrides, source=str(path))
 
     @classmethod
     def from_dict(cls, data, source: str = '<dict>') -> 'Scene':
@@ -373,13 +388,22 @@ class Scene(_Strict):
     @classmethod
     def _from_urdf_entry(cls, data: dict, base_dir, source: str) -> 'Scene':
         """A scene YAML naming ``urdf: path`` (relative to the YAML) with overrides."""
-        from affine_joint_sim.urdf import scene_from_urdf
         overrides = dict(data)
         path = overrides.pop('urdf')
         if not isinstance(path, str) or not path:
             raise SceneError(f'{source}: urdf: must be the path of a URDF file (got {path!r})')
         path = Path(base_dir or '.') / path
-        return scene_from_urdf(cls, path, overrides, source=f'{source} (urdf: {path})')
+        return cls._from_urdf(path, overrides, source=f'{source} (urdf: {path})')
+
+    @classmethod
+    def _from_urdf(cls, path: Path, overrides: dict, source: str) -> 'Scene':
+        """The scene of the URDF at ``path`` with ``overrides``; its robot description is the
+        URDF text. SceneError naming ``source`` on bad input."""
+        from affine_joint_sim.urdf import urdf_scene_data
+        data, text = urdf_scene_data(path, overrides, source)
+        scene = cls.from_dict(data, source=source)
+        scene._robot_description = text
+        return scene
 
     def to_yaml(self) -> str:
         """The scene as YAML text that ``from_yaml_text`` reads back to an equal scene."""

@@ -1,8 +1,8 @@
-"""Stepper: the simulator as a plain Python object (no ROS), design.md §2 and §8.
+"""Stepper: the simulator as a plain Python object (no ROS): docs/architecture.md#stepper.
 
 Every state array has a leading environment axis; without ``num_envs`` the public properties
 drop it. A step is one replay of a captured graph: on CPU Warp's graph of the kernel launch
-(replayed in C++, ~0.4 µs over the kernel itself, against ~4 µs for a recorded launch); on a
+(replayed in C++, far cheaper than a recorded launch: docs/architecture.md#measured-figures); on a
 GPU a CUDA graph, with the command upload captured in it when a setter changed a command.
 Commands are written and outputs read through NumPy views of host arrays (``mirrors``: on a
 GPU outputs are downloaded when read, by group), so nothing in ``step()`` but the replay and a
@@ -19,13 +19,14 @@ from affine_joint_sim.physics.energy import mechanical_energy
 from affine_joint_sim.physics.fields import (PROBLEM_COLUMNS, STAT_FLOAT_NAMES, STAT_INT_NAMES,
                                              allocate, array_sizes, device_model)
 from affine_joint_sim.physics.frames import POSE_COLUMNS
+from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
-from affine_joint_sim.physics.model import (SimulationWarning, build_model,
-                                            largest_step_efforts)
+from affine_joint_sim.physics.model import build_model, largest_step_efforts
 from affine_joint_sim.physics.newton import HALVINGS
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
 from affine_joint_sim.scene import Scene
+from affine_joint_sim.sim_warnings import SimulationWarning
 
 __all__ = ['Stepper', 'SimulationWarning']
 
@@ -112,8 +113,9 @@ class Stepper:
 
     @property
     def joint_types(self) -> list[str]:
-        """Each joint's type: 'revolute' (angles [rad], torques [N·m]), 'prismatic'
-        (distances [m], forces [N]) or 'fixed' (no coordinate, no command; reported as 0)."""
+        """Each joint's type (physics.joint_kinds): 'revolute' (angles [rad], torques [N·m]),
+        'prismatic' (distances [m], forces [N]) or 'fixed' (no coordinate, no command;
+        reported as 0)."""
         return [j.type for j in self.scene.joints]
 
     @property
@@ -124,14 +126,14 @@ class Stepper:
 
     @property
     def command_joint_names(self) -> list[str]:
-        """The joints that take a torque or force command: every joint but fixed ones."""
-        return [j.name for j in self.scene.joints if j.type != 'fixed']
+        """The joints that take a torque or force command (every joint but welds)."""
+        return [self.scene.joints[k].name for k in self.command_joint_index]
 
     @property
     def command_joint_index(self) -> np.ndarray:
         """Scene indices of ``command_joint_names`` (to select them from per-joint arrays)."""
-        return np.array([k for k, j in enumerate(self.scene.joints) if j.type != 'fixed'],
-                        dtype=np.intp)
+        return np.array([k for k, j in enumerate(self.scene.joints)
+                         if joint_kind(j.type).command is not None], dtype=np.intp)
 
     @property
     def drive_joint_names(self) -> list[str]:
@@ -148,7 +150,7 @@ class Stepper:
         """
         k = self._movable(name)
         limit = self._effort_limit[k]
-        if isinstance(value, (int, float)):   # one command per message: no NumPy (1 µs, not 17)
+        if isinstance(value, (int, float)):   # one command per message: NumPy is slow for one
             tau = value
             finite, over = math.isfinite(tau), abs(tau) > limit
         else:
@@ -222,7 +224,7 @@ class Stepper:
             array.assign(x0)
         self._warned = set()
         for k, joint in enumerate(self.scene.joints):
-            if joint.type != 'fixed':
+            if joint_kind(joint.type).command is not None:
                 self.set_torque(joint.name, joint.torque)
                 self.set_enabled(joint.name, joint.enabled)
             if joint.drive is not None:
@@ -427,8 +429,9 @@ class Stepper:
 
     def _movable(self, name) -> int:
         k = self.scene.joint_index(name)
-        if self.scene.joints[k].type == 'fixed':
-            raise ValueError(f'joint {name!r} is fixed: it takes no torque or force')
+        if joint_kind(self.scene.joints[k].type).command is None:
+            raise ValueError(f'joint {name!r} is {self.scene.joints[k].type}: it takes no torque '
+                             'or force')
         return k
 
     def _per_env(self, name, value, dtype) -> np.ndarray:

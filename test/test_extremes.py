@@ -15,7 +15,7 @@ import pytest
 
 from affine_joint_sim import Scene, Stepper
 from affine_joint_sim.chain import chain_scene
-from affine_joint_sim.physics.model import SimulationWarning
+from affine_joint_sim.sim_warnings import SimulationWarning
 
 G = 9.81
 BASE_MASS = 1000.0 * 0.2 ** 3          # chain_scene's fixed base [kg]

@@ -4,7 +4,7 @@ incremental potential (physics.potential) evaluated by the same stage functions.
 import numpy as np
 import pytest
 
-from affine_joint_sim.physics.codes import PRISMATIC
+from affine_joint_sim.physics.joint_kinds import PRISMATIC
 from helpers.physics import Probe
 
 
@@ -98,7 +98,7 @@ def test_hessian_of_every_joint_type_is_the_gauss_newton_form_at_random_states()
                     if side in index:
                         cols = slice(12 * index[side], 12 * index[side] + 12)
                         expected[cols, d] -= slope * (plus[g][k] - minus[g][k]) / (2 * h)
-        if host.joint_type[k] == PRISMATIC:
+        if host.joint_type[k] == PRISMATIC.code:
             r = _prismatic_residuals(host, k, probe.q0)
             hh = 1e-4
             for i in range(12 * len(probe.free)):

@@ -35,7 +35,8 @@ def test_closed_forms_match_numerical_integration(shape, inside, half):
 
 
 def test_mass_given_directly_and_the_spec_cube():
-    # physics_spec §1.5: the 0.4 m test cube, ρ = 1000: m = 64 kg, S = 0.853333 I, I_cm = 1.706667
+    # libuipc's 0.4 m test cube, ρ = 1000 (docs/physics.md#primitives): m = 64 kg, S = 0.853333 I,
+    # I_cm = 1.706667
     props = mass_properties(Shape(box=(0.4, 0.4, 0.4)), density=1000.0)
     assert props.mass == pytest.approx(64.0)
     np.testing.assert_allclose(props.second_moment, 0.8533333333, rtol=1e-9)

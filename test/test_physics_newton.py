@@ -9,7 +9,7 @@ import pytest
 
 from affine_joint_sim.chain import chain_scene
 from affine_joint_sim.physics.evaluate import Stages
-from affine_joint_sim.physics.model import SimulationWarning
+from affine_joint_sim.sim_warnings import SimulationWarning
 from affine_joint_sim.stepper import Stepper
 from helpers.physics import arm_with_fingers, random_rotation
 from test_joints import every_joint_type

@@ -8,6 +8,7 @@ from PIL import Image
 from affine_joint_sim.ros.recorder import BagRecorder
 from affine_joint_sim.viz.render import load_track
 from helpers.cli import cli
+from helpers.imports import modules_loaded_by
 
 
 @pytest.fixture(scope='module')
@@ -46,6 +47,15 @@ def test_a_png_is_one_frame(bags, tmp_path):
     assert done.returncode == 0, done.stderr
     with Image.open(out) as png:
         assert png.format == 'PNG' and png.size == (320, 200)
+
+
+def test_drawing_a_bag_with_poses_imports_no_warp(bags, tmp_path):
+    out = tmp_path / 'frame.png'
+    loaded = modules_loaded_by(
+        'from affine_joint_sim.cli import main\n'
+        f'assert main(["render", {str(bags["views"])!r}, "--out", {str(out)!r}, '
+        '"--width", "160", "--height", "100"]) == 0\n')
+    assert out.is_file() and 'affine_joint_sim.viz.render' in loaded and 'warp' not in loaded
 
 
 def test_a_bag_without_poses_is_resimulated_to_the_same_poses(bags):

@@ -1,5 +1,5 @@
-"""Lockstep with controllers written the usual way (design.md §12): late, restarted and
-several controllers. The gate is tested on its own against a fake clock, the node over real
+"""Lockstep with controllers written the usual way (README.md#the-ros-2-node): late, restarted
+and several controllers. The gate is tested on its own against a fake clock, the node over real
 DDS with controllers in other processes; waits are on conditions (states seen, log lines
 written), never fixed sleeps."""
 

@@ -188,7 +188,7 @@ def test_live_parameter_changes_are_checked_then_applied_between_steps(sim, ros_
     refused = set_parameter('real_time_factor', double_value=0.0)
     assert not refused.successful and 'out of range' in refused.reason
     refused = set_parameter('scene', string_value='arm')
-    assert not refused.successful and 'fixed while the node runs' in refused.reason
+    assert not refused.successful and 'read-only parameter: scene' in refused.reason
     assert set_parameter('mode', string_value='lockstep').successful
     # lockstep now: the node holds its state and publishes it again while it waits
     assert wait_for(lambda: len(states.messages) >= 2 and
@@ -197,6 +197,26 @@ def test_live_parameter_changes_are_checked_then_applied_between_steps(sim, ros_
     publisher(ros_node, wait_for, 'joint_commands').publish(JointState(name=['shoulder'],
                                                                        effort=[0.0]))
     assert wait_for(lambda: stamp_ns(states.last) == held + DT_NS)
+
+
+def test_every_parameter_describes_itself_and_the_fixed_ones_are_read_only(sim, ros_node,
+                                                                           wait_for):
+    from rcl_interfaces.srv import DescribeParameters
+
+    from affine_joint_sim.ros.parameters import PARAMETERS
+
+    sim()
+    names = list(PARAMETERS)
+    described = call(ros_node, wait_for, DescribeParameters,
+                     '/affine_joint_sim/describe_parameters',
+                     DescribeParameters.Request(names=names)).descriptors
+    assert [d.name for d in described] == names
+    for descriptor in described:
+        assert descriptor.description == PARAMETERS[descriptor.name].help != ''
+    # the ones the README lists as changeable while the node runs
+    assert {d.name for d in described if not d.read_only} == {
+        'mode', 'real_time_factor', 'lockstep_publishers', 'max_command_bytes', 'publish_clock',
+        'command_timeout', 'duration'}
 
 
 def test_disabled_torque_is_not_applied(sim, ros_node, wait_for):

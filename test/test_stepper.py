@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from affine_joint_sim import Scene, Stepper
-from affine_joint_sim.physics.model import SimulationWarning
+from affine_joint_sim.sim_warnings import SimulationWarning
 from helpers.physics import arm_with_fingers
 
 SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
@@ -94,8 +94,8 @@ def test_bdf1_pendulum_with_torque_converges_first_order():
 
 
 def test_bdf2_pendulum_with_torque_converges_second_order():
-    # BDF2 with the torque in q̃ (preface §2), started by one BDF1 step; tight Newton tolerance
-    # so that the solver does not mask the integrator's error
+    # BDF2 with the torque in q̃ (docs/physics.md#prediction), started by one BDF1 step; tight
+    # Newton tolerance so that the solver does not mask the integrator's error
     tau, t_end = 2.0, 1.0
     reference = _pendulum_reference(tau, t_end)
     errors = []

@@ -13,9 +13,11 @@ import numpy as np
 import pytest
 
 from affine_joint_sim.bench.references import RigidTree
-from affine_joint_sim.physics.model import SimulationWarning, build_model
+from affine_joint_sim.physics.model import build_model
 from affine_joint_sim.scene import Scene, SceneError
+from affine_joint_sim.sim_warnings import SimulationWarning
 from affine_joint_sim.stepper import Stepper
+from helpers.imports import modules_loaded_by
 
 DATA = Path(__file__).resolve().parent / 'data' / 'urdf'
 ROBOTS = Path(__file__).resolve().parent.parent / 'msg_configs' / 'robots'
@@ -339,6 +341,22 @@ def test_scene_yaml_names_a_urdf_with_overrides(tmp_path):
     assert again.model_dump() == scene.model_dump() and again.robot_description is None
 
 
+def test_loading_a_urdf_and_describing_and_drawing_scenes_import_no_warp():
+    """Tools that only load and show scenes (URDF import, robot description, shapes, link
+    frames, the renderer) do not pay for Warp."""
+    loaded = modules_loaded_by(
+        'from affine_joint_sim.poses import LinkFrames\n'
+        'from affine_joint_sim.scene import Scene\n'
+        'from affine_joint_sim.viz.description import robot_description\n'
+        'from affine_joint_sim.viz.drawables import drawables\n'
+        'import affine_joint_sim.viz.render\n'
+        f'robot = Scene.from_urdf({str(ROBOTS / "arm6_gripper.urdf")!r})\n'
+        f'arm = Scene.load({str(ROBOTS.parent / "scenes" / "arm.yaml")!r})\n'
+        'for scene in (robot, arm):\n'
+        '    robot_description(scene), drawables(scene), LinkFrames(scene)\n')
+    assert 'affine_joint_sim.urdf.convert' in loaded and 'warp' not in loaded
+
+
 def test_packaged_urdf_scenes_load_and_run():
     for name in ('arm6', 'arm6_gripper'):
         sim = Stepper(Scene.load(Path('msg_configs/scenes') / f'{name}.yaml'))
@@ -560,6 +578,7 @@ def test_free_base_needs_a_massive_root_and_fixed_base_does_not(tmp_path):
     ({'joints': {'nope': {'damping': 1.0}}}, "joints: 'nope' is not a joint of the robot"),
     ({'joints': {'hinge': {'damping': -1.0}}}, 'joints[0].damping'),
     ({'fixed_base': 'maybe'}, 'fixed_base'),
+    ({'name': ''}, 'name: String should have at least 1 character'),     # as in a scene
     ({'colour': 'red'}, 'colour: unknown key; valid keys here: name, dt, gravity, solver, '
                         'fixed_base, merge_fixed, initial_positions, package_paths, joints'),
 ])

@@ -13,9 +13,9 @@ from geometry_msgs.msg import PoseArray
 from rclpy.serialization import deserialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
-from affine_joint_sim.physics.model import rotation_matrix
 from affine_joint_sim.ros.patched import PatchedMessage
 from affine_joint_sim.ros.viz import VizMessages, VizSchedule
+from affine_joint_sim.rotations import rotation_matrix
 from affine_joint_sim.scene import Orientation, Scene
 from affine_joint_sim.stepper import Stepper
 from affine_joint_sim.viz.description import robot_description

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from affine_joint_sim.physics.mass import body_mass_properties
-from affine_joint_sim.physics.model import rotation_matrix
+from affine_joint_sim.rotations import axis_rotation, rotation_matrix
 
 __all__ = ['RigidTree', 'rigid_inertia']
 
@@ -45,15 +45,9 @@ def _body_inertia(body, mass: float) -> np.ndarray:
 
 
 def _cross(a, b) -> np.ndarray:
-    """a × b of two 3-vectors (np.cross costs ~50 µs a call; this, ~3 µs)."""
+    """a × b of two 3-vectors (np.cross is slower: docs/architecture.md#measured-figures)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                      a[0] * b[1] - a[1] * b[0]])
-
-
-def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rodrigues: rotation by ``angle`` [rad] about the unit vector ``axis``."""
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
 
 
 class RigidTree:
@@ -124,7 +118,7 @@ class RigidTree:
             p, c = self.parent[j], self.child[j]
             axes[j] = disp_rot[p] @ self.axis0[j]
             points[j] = disp_rot[p] @ self.point0[j] + disp_t[p]
-            turn = _rotation(self.axis0[j], theta[j] - self.offset[j])
+            turn = axis_rotation(self.axis0[j], theta[j] - self.offset[j])
             disp_rot[c] = disp_rot[p] @ turn
             disp_t[c] = disp_rot[p] @ (self.point0[j] - turn @ self.point0[j]) + disp_t[p]
             com[c] = disp_rot[c] @ self.com0[c] + disp_t[c]

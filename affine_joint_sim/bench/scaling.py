@@ -2,8 +2,8 @@
 
 The block-tree Cholesky makes a Newton iteration O(joints); the fitted exponents (least
 squares in log-log) of µs/step and of µs per Newton iteration against links check it. Below
-~16 links a fixed per-step cost (Python around the launch) dominates, so the exponents are also
-fitted on the long chains alone. Chains are released ``perf.CHAIN_ANGLE`` from vertical; short
+``LONG`` links a fixed per-step cost (Python around the launch) dominates, so the exponents are
+also fitted on the long chains alone. Chains are released ``perf.CHAIN_ANGLE`` from vertical; short
 ones then take more Newton iterations per step than long ones, hence the second exponent.
 """
 

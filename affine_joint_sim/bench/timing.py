@@ -35,7 +35,7 @@ def measure_steps(sim, commands: dict, steps: int, repeats: int) -> dict:
     evicting its data from the caches). Returns ``us_per_step`` (median of the timed runs
     [µs]), ``launches_per_step`` and ``syncs_per_step``, ``launch_us`` and ``sync_us`` (wall
     time per step inside those calls [µs]) and ``other_us`` (the rest of the step: Python, and
-    the counting itself, ~0.5 µs), all medians of the counted runs, and ``newton_iterations``
+    the counting itself), all medians of the counted runs, and ``newton_iterations``
     (mean per step and environment).
     """
     import numpy as np

@@ -27,14 +27,14 @@ from typing import Annotated, Literal
 import yaml
 from pydantic import Field, ValidationError
 
-from affine_joint_sim.scene import Number, _Strict, validation_report
+from affine_joint_sim.scene import Number, StrictModel, validation_report
 
 __all__ = ['SweepSpec', 'main']
 
 PositiveList = Annotated[list[Annotated[Number, Field(gt=0.0)]], Field(min_length=1)]
 
 
-class SpecScene(_Strict):
+class SpecScene(StrictModel):
     scene: str
     torques: dict[str, Number] | Annotated[list[dict[str, Number]], Field(min_length=1)] = {}
     duration: Annotated[Number, Field(gt=0.0)] = 0.5
@@ -43,7 +43,7 @@ class SpecScene(_Strict):
         return self.torques if isinstance(self.torques, list) else [self.torques]
 
 
-class SweepSpec(_Strict):
+class SweepSpec(StrictModel):
     """A sweep: cases × dt × integrator × newton_tol × precision × device."""
 
     cases: list[str] = []

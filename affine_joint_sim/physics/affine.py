@@ -1,7 +1,8 @@
-"""Affine kinematics and the mass matrix (physics_spec §1): world points, Jacobians, M x.
+"""Affine kinematics and the mass matrix: world points, Jacobians, M x.
 
 q = [p, a1, a2, a3] (rows a_r of A), world frame; the rest frame of a body is centred at its
-centre of mass, so M = blockdiag(m I3, S, S, S) with S = diag(s) [kg, kg·m^2].
+centre of mass, so M = blockdiag(m I3, S, S, S) with S = diag(s) [kg, kg·m^2]
+(docs/physics.md#state-and-kinematics, docs/physics.md#mass).
 """
 
 from types import SimpleNamespace

@@ -1,4 +1,4 @@
-"""Explicit joint commands into the prediction q̃ (physics_spec §3.1, §6).
+"""Explicit joint commands into the prediction q̃ (docs/physics.md#explicit-commands).
 
 A command is evaluated once at the start-of-step state q_n and enters only through q̃:
 q̃ += scale·a_ext with scale = dt² (BDF1) or 4/9 dt² (BDF2).

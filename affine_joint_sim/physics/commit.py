@@ -2,8 +2,9 @@
 
 A step whose state is non-finite, or in which a joint turns more than 0.9π (its multi-turn
 angle would alias), is rejected: that environment keeps its start-of-step state and flags the
-step. Otherwise velocities follow the integrator (§3.6, §3.7), the BDF2 history shifts and the
-joint coordinates advance by their unwrapped increments (§5.3).
+step. Otherwise velocities follow the integrator, the BDF2 history shifts and the joint
+coordinates advance by their unwrapped increments (docs/physics.md#end-of-step,
+docs/physics.md#joint-coordinate).
 """
 
 from types import SimpleNamespace
@@ -83,7 +84,7 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def commit(model: Model, state: State, scratch: Scratch, env: int):
-        """Accept the step: velocities and history (§3.6, §3.7), joint coordinates (a wrapped
+        """Accept the step: velocities and history, joint coordinates (a wrapped
         angle is reported for revolute joints in WRAPPED mode, the coordinate otherwise)."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]

@@ -1,16 +1,17 @@
 """Mechanical energy of an ABD state: the quantity a passive system must not gain.
 
-The incremental potential of physics_spec §3.3 is ½‖q − q̃‖²_M + dt²·V(q), so the physical
-potential V is the orthogonality energy κ v̄ ‖AAᵀ − I‖² plus each joint's constraint spring
-and limit penalty divided by dt² (those terms carry no dt² there). With gravity's potential and
-the affine kinetic energy ½ q̇ᵀ M q̇ this is the energy that implicit BDF steps dissipate.
-NumPy, host side, world frame, SI units.
+The incremental potential (docs/physics.md#incremental-potential) is ½‖q − q̃‖²_M + dt²·V(q),
+so the physical potential V is the orthogonality energy κ v̄ ‖AAᵀ − I‖² plus each joint's
+constraint spring and limit penalty divided by dt² (those terms carry no dt² there). With
+gravity's potential and the affine kinetic energy ½ q̇ᵀ M q̇ this is the energy that implicit
+BDF steps dissipate (docs/physics.md#mechanical-energy). NumPy, host side, world frame, SI
+units.
 """
 
 import numpy as np
 
-from affine_joint_sim.physics.codes import PRISMATIC
-from affine_joint_sim.physics.model import HostModel, direction_jacobian, jacobian, linear_pairs
+from affine_joint_sim.physics.joints import host_functions
+from affine_joint_sim.physics.model import HostModel, residual_jacobians
 
 __all__ = ['mechanical_energy']
 
@@ -42,13 +43,10 @@ def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,
     joints = np.zeros(bodies.shape)
     for k in np.flatnonzero(model.joint_has_free):
         qp, qc = q[..., model.joint_parent[k], :], q[..., model.joint_child[k], :]
-        residuals = [qp @ jp.T - qc @ jc.T for jp, jc in linear_pairs(vars(model), k)]
-        if model.joint_type[k] == PRISMATIC:
-            delta = (qc @ jacobian(model.joint_child_point0[k]).T
-                     - qp @ jacobian(model.joint_parent_point0[k]).T)
-            for side, qk in (('parent', qp), ('child', qc)):
-                axis = qk @ direction_jacobian(getattr(model, f'joint_{side}_axis')[k]).T
-                residuals.append(np.cross(delta, axis))
+        functions = host_functions(model.joint_type[k])
+        point, direction = residual_jacobians(vars(model), k)
+        residuals = [qp @ jp.T - qc @ jc.T for jp, jc in functions.linear_pairs(point, direction)]
+        residuals += functions.nonlinear_residuals(point, direction, qp, qc)
         spring = 0.5 * model.joint_stiffness[k] * sum(np.sum(r ** 2, axis=-1) for r in residuals)
         joints += (spring + _limit_energy(model, k, coordinates[..., k])) / model.dt ** 2
     return bodies + joints

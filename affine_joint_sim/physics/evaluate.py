@@ -36,7 +36,7 @@ def _probe_kernel(t):
     warm_start, moved, full_step = t.warm_start, t.moved, t.full_step
     one = t.one
 
-    @wp.kernel(module='unique', enable_backward=False)
+    @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def probe(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
               scratch: Scratch, which: int,
               energy_out: wp.array(dtype=scalar), coordinate_out: wp.array(dtype=scalar),

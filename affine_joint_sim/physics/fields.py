@@ -72,7 +72,7 @@ FIELDS = _fields('model', [
     ('elim_order', 'int32', F, '-', 'free bodies leaves-first (fill-in free elimination)'),
     ('elim_parent', 'int32', B, '-', 'tree parent in the elimination, -1 for a root'),
     ('elim_offdiag', 'mat12', B, 'kg', 'constant coupling block H[b, elim_parent[b]]'),
-    ('joint_type', 'int32', J, '-', 'REVOLUTE | PRISMATIC | FIXED (physics.codes)'),
+    ('joint_type', 'int32', J, '-', 'JointKind.code (physics.joint_kinds)'),
     ('joint_parent', 'int32', J, '-', 'parent body index (libuipc left, i)'),
     ('joint_child', 'int32', J, '-', 'child body index (libuipc right, j)'),
     ('joint_stiffness', 'scalar', J, 'kg', 'K = strength_ratio (m_P + m_C)'),

@@ -61,7 +61,7 @@ def build(t) -> SimpleNamespace:
             norm = -norm
         return x / norm, y / norm, z / norm, w / norm
 
-    @wp.kernel(module='unique', enable_backward=False)
+    @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def frame_poses(q: wp.array2d(dtype=vec12), env: int, body: wp.array(dtype=int),
                     rotation: wp.array(dtype=mat33), offset: wp.array(dtype=vec3),
                     out: wp.array2d(dtype=wp.float64)):

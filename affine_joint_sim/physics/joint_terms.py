@@ -1,6 +1,6 @@
 """Terms on a joint's coordinate x(q) shared by joint types: limit, drive, damping.
 
-Each is a scalar function φ(x) inside the incremental potential (physics_spec preface §9),
+Each is a scalar function φ(x) inside the incremental potential (docs/physics.md#joint-terms),
 entering Newton through φ'(x) ∇x and the Gauss–Newton Hessian φ''(x) ∇x ∇xᵀ (φ'' ≥ 0, so PSD;
 the φ' ∇²x term is dropped). x is the multi-turn angle [rad] or the distance [m]: the last
 committed coordinate plus the in-step increment, so limits and targets work across ±π.

@@ -1,10 +1,11 @@
 """The physics pipeline of one precision, composed stage by stage into the step kernel.
 
 ``step_kernels(scalar)`` builds, once per scalar type (wp.float64 or wp.float32), the types
-and structs of ``fields``, then each stage's Warp functions in pipeline order: affine
-kinematics, orthogonality, tree solve, joints, joint terms, commands, incremental potential,
-assembly, prediction, Newton, commit and the step kernel. Every stage function is an attribute
-of the returned namespace, so tests can launch a stage on its own (``physics.evaluate``).
+and structs of ``fields``, then each stage's Warp functions in pipeline order: the portable
+sin and atan2 and the kernels' compile options, affine kinematics, orthogonality, tree solve,
+joints, joint terms, commands, incremental potential, assembly, prediction, Newton, commit
+and the step kernel. Every stage function is an attribute of the returned namespace, so tests
+can launch a stage on its own (``physics.evaluate``).
 """
 
 from types import SimpleNamespace
@@ -12,16 +13,15 @@ from types import SimpleNamespace
 import warp as wp
 
 from affine_joint_sim.physics import (affine, assemble, commands, commit, frames, joint_terms,
-                                      joints, newton, ortho, potential, prediction, step,
-                                      tree_solve)
+                                      joints, kernel_math, newton, ortho, potential,
+                                      prediction, step, tree_solve)
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.precision import types_for
 
 __all__ = ['step_kernels', 'scalar_of', 'frame_kernel']
 
-_STAGES = (affine, ortho, tree_solve, joints, joint_terms, commands, potential, assemble,
-           prediction, newton,
-           commit, step)
+_STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands, potential,
+           assemble, prediction, newton, commit, step)
 _BUILT = {}
 _FRAMES = {}
 

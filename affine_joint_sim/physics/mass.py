@@ -1,5 +1,5 @@
-"""Mass properties of bodies, COM-centred, body axes: closed forms of primitives (physics_spec
-§1.5) and bodies given by mass and principal moments of inertia (URDF links, preface item 10)."""
+"""Mass properties of bodies, COM-centred, body axes: closed forms of primitives and bodies given
+by mass and principal moments of inertia (URDF links); see docs/physics.md#mass."""
 
 import math
 
@@ -62,7 +62,7 @@ def mass_properties(shape, density: float | None = None, mass: float | None = No
 
 def second_moments(inertia) -> np.ndarray:
     """Principal second moments s_i = ½ tr(I) − I_i [kg·m²] of principal moments of inertia
-    I_i (Σ = ½ tr(I)·1 − I, physics_spec preface item 10)."""
+    I_i (Σ = ½ tr(I)·1 − I, docs/physics.md#urdf-inertials)."""
     inertia = np.asarray(inertia, dtype=np.float64)
     return 0.5 * inertia.sum() - inertia
 

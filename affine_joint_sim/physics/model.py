@@ -1,8 +1,8 @@
 """Host-side model build: a Scene turned into the constant arrays the step kernel reads.
 
 Everything here is NumPy float64 and runs once per scene. Frames: world z up; a body's rest
-frame is centred at its centre of mass with the shape's axes (physics_spec preface §1), so its
-state is q = [p, a1, a2, a3] with p the COM [m] and a_r the rows of A (physics_spec §1.1).
+frame is centred at its centre of mass with the shape's axes, so its
+state is q = [p, a1, a2, a3], p the COM [m], A's rows a_r (docs/physics.md#state-and-kinematics).
 """
 
 import math
@@ -10,18 +10,18 @@ import warnings
 
 import numpy as np
 
-from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, FIXED, GENERALIZED,
-                                            JOINT_TYPES, LEVER_ARM, PRISMATIC, REVOLUTE,
+from affine_joint_sim import portable_math as pm
+from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, GENERALIZED, LEVER_ARM,
                                             WRAPPED)
+from affine_joint_sim.physics.joint_kinds import JOINT_KINDS, joint_kind
+from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import body_mass_properties
+from affine_joint_sim.rotations import rotation_matrix
+from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['HostModel', 'SimulationWarning', 'build_model', 'jacobian', 'direction_jacobian',
-           'linear_pairs', 'rotation_matrix', 'quaternion_matrix', 'largest_step_efforts']
-
-
-class SimulationWarning(UserWarning):
-    """A scene or a step the simulator can run but whose result the user should know about."""
+__all__ = ['HostModel', 'build_model', 'jacobian', 'direction_jacobian', 'linear_pairs',
+           'residual_jacobians', 'largest_step_efforts']
 
 
 class HostModel:
@@ -51,30 +51,8 @@ class HostModel:
         return len(self.joint_parent)
 
 
-def rotation_matrix(orientation) -> np.ndarray:
-    """World-from-body rotation of a scene Orientation (None = identity)."""
-    if orientation is None:
-        return np.eye(3)
-    if orientation.rpy is not None:
-        r, p, y = orientation.rpy
-        rx = np.array([[1, 0, 0], [0, math.cos(r), -math.sin(r)], [0, math.sin(r), math.cos(r)]])
-        ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
-        rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
-        return rz @ ry @ rx
-    return quaternion_matrix(*orientation.quat_xyzw)
-
-
-def quaternion_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
-    """Rotation matrix of the quaternion (x, y, z, w), normalised first."""
-    x, y, z, w = np.array([x, y, z, w]) / np.linalg.norm([x, y, z, w])
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
-
-
 def jacobian(x_bar) -> np.ndarray:
-    """J(x̄), the 3×12 map from q to the world point of rest point x̄ (physics_spec §1.2)."""
+    """J(x̄), the 3×12 map from q to the world point p + A x̄ of rest point x̄."""
     j = np.zeros((3, 12))
     for r in range(3):
         j[r, r] = 1.0
@@ -87,13 +65,13 @@ def _skew(w) -> np.ndarray:
 
 
 def _joint_frame(axis) -> tuple[np.ndarray, np.ndarray]:
-    """Orthonormal (n, b) with (t̂, n, b) right-handed, per physics_spec §5.1."""
-    t = axis / np.linalg.norm(axis)
+    """Orthonormal (n, b) with (t̂, n, b) right-handed (docs/physics.md#joint-frame)."""
+    t = axis / pm.norm(axis)
     s = np.array([1.0, 0.0, 0.0]) if abs(t[0]) <= 0.9 else np.array([0.0, 1.0, 0.0])
-    n = np.cross(t, s)
-    n /= np.linalg.norm(n)
-    b = np.cross(t, n)
-    return n, b / np.linalg.norm(b)
+    n = pm.cross(t, s)
+    n /= pm.norm(n)
+    b = pm.cross(t, n)
+    return n, b / pm.norm(b)
 
 
 def build_model(scene) -> HostModel:
@@ -106,7 +84,7 @@ def build_model(scene) -> HostModel:
         q0[i, :3], q0[i, 3:] = body.position, rot.reshape(9)
         if not body.fixed:
             v0[i, :3] = body.linear_velocity
-            v0[i, 3:] = (_skew(body.angular_velocity) @ rot).reshape(9)
+            v0[i, 3:] = pm.matmul(_skew(body.angular_velocity), rot).reshape(9)
     fixed = np.array([b.fixed for b in scene.bodies], dtype=np.int32)
     mass = np.array([p.mass for p in props])
     joints = _joint_arrays(scene, rotations, q0, mass)
@@ -137,7 +115,9 @@ def build_model(scene) -> HostModel:
         ('limits', bool((moving & (joints['joint_limit_strength'] > 0)).any())),
         ('drives', bool((moving & (joints['joint_drive_stiffness'] > 0)).any())),
         ('damping', bool((moving & (joints['joint_damping'] > 0)).any()))) if on]
-    state_coupling = bool((state_terms | (moving & (joints['joint_type'] == PRISMATIC))).any())
+    nonlinear = np.array([not JOINT_KINDS[code].linear for code in joints['joint_type']],
+                         dtype=bool)
+    state_coupling = bool((state_terms | (moving & nonlinear)).any())
     values = dict(
         dt=scene.dt, gravity=gravity, has_gravity=int(np.any(gravity != 0.0)),
         integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,
@@ -165,31 +145,32 @@ def _joint_arrays(scene, rotations, q0, mass) -> dict:
     """
     nj = len(scene.joints)
     out = {name: np.zeros((nj, 3)) for name in _SIDE_VECTORS}
-    out['joint_type'] = np.array([JOINT_TYPES[j.type] for j in scene.joints], dtype=np.int32)
+    kinds = [joint_kind(j.type) for j in scene.joints]
+    out['joint_type'] = np.array([kind.code for kind in kinds], dtype=np.int32)
     parent = np.array([scene.body_index(j.parent) for j in scene.joints], dtype=np.int32)
     child = np.array([scene.body_index(j.child) for j in scene.joints], dtype=np.int32)
     out['joint_parent'], out['joint_child'] = parent, child
     out['joint_stiffness'] = np.array([j.strength_ratio * (mass[parent[k]] + mass[child[k]])
                                        for k, j in enumerate(scene.joints)])
     for k, joint in enumerate(scene.joints):
-        if joint.type == 'fixed':
+        if not kinds[k].takes_axis:
             x0 = x1 = 0.5 * (q0[parent[k], :3] + q0[child[k], :3])
             t, n, b = np.eye(3)
         else:
             x0, x1 = np.asarray(joint.x0), np.asarray(joint.x1)
-            t = (x1 - x0) / np.linalg.norm(x1 - x0)
+            t = (x1 - x0) / pm.norm(x1 - x0)
             n, b = _joint_frame(x1 - x0)
         for side, body in (('parent', parent[k]), ('child', child[k])):
             rot, p = rotations[body], q0[body, :3]
             for name, value in (('point0', x0 - p), ('point1', x1 - p), ('axis', t),
                                 ('normal', n), ('binormal', b)):
-                out[f'joint_{side}_{name}'][k] = rot.T @ value
+                out[f'joint_{side}_{name}'][k] = pm.matmul(rot.T, value)
     out['joint_torque_model'] = np.array(
         [LEVER_ARM if j.torque_model == 'lever_arm' else GENERALIZED for j in scene.joints],
         dtype=np.int32)
     out['joint_angle_mode'] = np.array(
-        [CONTINUOUS if j.angle_mode == 'continuous' or j.type != 'revolute' else WRAPPED
-         for j in scene.joints], dtype=np.int32)
+        [CONTINUOUS if j.angle_mode == 'continuous' or not kind.periodic else WRAPPED
+         for j, kind in zip(scene.joints, kinds)], dtype=np.int32)
     limits = [j.limit for j in scene.joints]
     out['joint_limit_lower'] = np.array([lim.lower if lim else 0.0 for lim in limits])
     out['joint_limit_upper'] = np.array([lim.upper if lim else 0.0 for lim in limits])
@@ -216,11 +197,10 @@ def direction_jacobian(u_bar) -> np.ndarray:
     return j
 
 
-def linear_pairs(joints: dict, k: int) -> list:
-    """(J_P, J_C) of each residual J_P q_P − J_C q_C of joint k that is linear in q.
-
-    Revolute: its two anchor gaps; fixed: the weld-centre gap and the three axis differences;
-    prismatic: the normal and binormal differences (its axis terms are not linear)."""
+def residual_jacobians(joints: dict, k: int):
+    """(point, direction) of joint k: point(m) gives the (J_P, J_C) of anchor m's world
+    points, direction(what) those of the world copies of its rest direction ``what`` ('axis',
+    'normal', 'binormal'), for the type's ``linear_pairs`` and ``nonlinear_residuals``."""
     def point(m):
         return (jacobian(joints[f'joint_parent_point{m}'][k]),
                 jacobian(joints[f'joint_child_point{m}'][k]))
@@ -229,22 +209,23 @@ def linear_pairs(joints: dict, k: int) -> list:
         return (direction_jacobian(joints[f'joint_parent_{what}'][k]),
                 direction_jacobian(joints[f'joint_child_{what}'][k]))
 
-    kind = joints['joint_type'][k]
-    if kind == REVOLUTE:
-        return [point(0), point(1)]
-    if kind == FIXED:
-        return [point(0), direction('axis'), direction('normal'), direction('binormal')]
-    return [direction('normal'), direction('binormal')]
+    return point, direction
+
+
+def linear_pairs(joints: dict, k: int) -> list:
+    """(J_P, J_C) of each residual J_P q_P − J_C q_C of joint k that is linear in q (its
+    type's ``linear_pairs``)."""
+    return host_functions(joints['joint_type'][k]).linear_pairs(*residual_jacobians(joints, k))
 
 
 def _constant_blocks(joints: dict, k: int):
     """(H_PP, H_PC, H_CC) of joint k's linear residuals, K Σ J_Pᵀ J_P, −K Σ J_Pᵀ J_C,
-    K Σ J_Cᵀ J_C (physics_spec §4.4) [kg]: constant, computed once."""
+    K Σ J_Cᵀ J_C [kg]: constant, computed once (docs/physics.md#joints)."""
     pairs = linear_pairs(joints, k)
     stiffness = joints['joint_stiffness'][k]
-    return (stiffness * sum(jp.T @ jp for jp, _ in pairs),
-            -stiffness * sum(jp.T @ jc for jp, jc in pairs),
-            stiffness * sum(jc.T @ jc for _, jc in pairs))
+    return (stiffness * sum(pm.matmul(jp.T, jp) for jp, _ in pairs),
+            -stiffness * sum(pm.matmul(jp.T, jc) for jp, jc in pairs),
+            stiffness * sum(pm.matmul(jc.T, jc) for _, jc in pairs))
 
 
 def _elimination(scene, fixed, joints):
@@ -296,15 +277,16 @@ def _elimination(scene, fixed, joints):
 def _warn_com_on_axis(scene, fixed, joints):
     """lever_arm applies no torque to a body whose centre of mass lies on the axis: say so."""
     for k, joint in enumerate(scene.joints):
-        if joints['joint_torque_model'][k] != LEVER_ARM or joint.type != 'revolute':
+        if (joints['joint_torque_model'][k] != LEVER_ARM
+                or joint_kind(joint.type).command != 'torque'):
             continue
         for side in ('parent', 'child'):
             body = joints[f'joint_{side}'][k]
             a0, a1 = joints[f'joint_{side}_point0'][k], joints[f'joint_{side}_point1'][k]
-            e = (a1 - a0) / np.linalg.norm(a1 - a0)
+            e = (a1 - a0) / pm.norm(a1 - a0)
             d = -a0
-            r = d - (d @ e) * e
-            if not fixed[body] and r @ r <= 1e-12:
+            r = d - pm.dot(d, e) * e
+            if not fixed[body] and pm.dot(r, r) <= 1e-12:
                 warnings.warn(
                     f'joint {joint.name!r}: the centre of mass of body '
                     f'{scene.bodies[body].name!r} lies on the joint axis, so torque_model '
@@ -345,15 +327,16 @@ def _warn_unresolved_turns(scene, fixed, resolves_turns):
 def largest_step_efforts(model: HostModel) -> np.ndarray:
     """Per joint, the largest |torque| [N·m] or |force| [N] one step can represent [(nj,)].
 
-    A revolute torque τ turns a body of inertia I about the axis by τ dt²/I in one step from
-    rest: beyond 0.9π·I/dt² (I of the joint's lighter free body) the step is rejected as
-    aliasing. A prismatic force f moves a body of mass m by f dt²/m: beyond m·d/dt² (d: the
-    body's largest extent) one step throws it further than its own size. inf where no body of
-    the joint is free; 0 for fixed joints (no command).
+    A torque τ turns a body of inertia I about the axis by τ dt²/I in one step from rest:
+    beyond 0.9π·I/dt² (I of the joint's lighter free body) the step is rejected as aliasing.
+    A force f moves a body of mass m by f dt²/m: beyond m·d/dt² (d: the body's largest extent)
+    one step throws it further than its own size. inf where no body of the joint is free; 0
+    for a type that takes no command.
     """
     out = np.full(model.joint_count, np.inf)
     for k in range(model.joint_count):
-        if model.joint_type[k] == FIXED:
+        command = JOINT_KINDS[model.joint_type[k]].command
+        if command is None:
             out[k] = 0.0
             continue
         for side in ('parent', 'child'):
@@ -361,15 +344,15 @@ def largest_step_efforts(model: HostModel) -> np.ndarray:
             if model.body_fixed[body]:
                 continue
             mass = model.body_mass[body]
-            if model.joint_type[k] == PRISMATIC:
+            if command == 'force':
                 bound = mass * 2.0 * model.body_half_extent[body].max() / model.dt ** 2
             else:
                 p0 = getattr(model, f'joint_{side}_point0')[k]
                 axis = getattr(model, f'joint_{side}_point1')[k] - p0
-                axis /= np.linalg.norm(axis)
+                axis /= pm.norm(axis)
                 s = model.body_second_moment[body]
-                inertia_cm = s.sum() - s @ axis ** 2          # t̂ᵀ (tr(S) I − S) t̂
-                arm = -p0 - (-p0 @ axis) * axis               # COM (rest origin) from the axis
-                bound = 0.9 * math.pi * (inertia_cm + mass * arm @ arm) / model.dt ** 2
+                inertia_cm = s.sum() - pm.dot(s, axis ** 2)    # t̂ᵀ (tr(S) I − S) t̂
+                arm = -p0 - pm.dot(-p0, axis) * axis          # COM (rest origin) from the axis
+                bound = 0.9 * math.pi * (inertia_cm + mass * pm.dot(arm, arm)) / model.dt ** 2
             out[k] = min(out[k], bound)
     return out

@@ -1,4 +1,4 @@
-"""Newton's method on the incremental potential (physics_spec §3.4–3.5, preface §7).
+"""Newton's method on the incremental potential (docs/physics.md#newton-solver).
 
 From q̃ (with solver.warm_start, a body whose prediction added shear starts from the rotation
 of q̃ times the stretch of q_n: see ``warm_start``): assemble, tree-solve, test convergence on
@@ -24,6 +24,7 @@ def build(t) -> SimpleNamespace:
     mat33, vec3, vec12, scalar = t.mat33, t.vec3, t.vec12, t.scalar
     zero, half, one, two = t.zero, t.half, t.one, t.two
     affine, ortho_energy, svd, mass_times = t.affine, t.ortho_energy, t.svd, t.mass_times
+    sin = t.sin
     rigid_strain, roundoff = t.rigid_strain, t.energy_roundoff
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
@@ -97,8 +98,8 @@ def build(t) -> SimpleNamespace:
         sinc = one
         sinc_half = one
         if theta > zero:
-            sinc = wp.sin(theta) / theta
-            sinc_half = wp.sin(half_theta) / half_theta
+            sinc = sin(theta) / theta
+            sinc_half = sin(half_theta) / half_theta
         k = wp.skew(w)
         return wp.identity(n=3, dtype=scalar) + sinc * k + half * sinc_half * sinc_half * (k @ k)
 
@@ -179,9 +180,9 @@ def build(t) -> SimpleNamespace:
                     energy: scalar):
         """First the full step along turns (``moved``, capped by ``full_step``); if E rises,
         the straight path q_start + α dq, halving α from 1 until E ≤ energy + its rounding
-        (HALVINGS at most: a cubic limit entered deep needed 9–12). Following turns saves
-        iterations where links turn (the arm falling from upright under ±0.5 N·m: 8.9 → 5.4 a
-        step), but bends the path off the joints, which are linear in q: where that costs more
+        (HALVINGS at most: a cubic limit entered deep needs many). Following turns saves
+        iterations where links turn (figures: docs/physics.md#line-search and the README),
+        but bends the path off the joints, which are linear in q: where that costs more
         than the turn saves, the straight path takes over. The rounding: near
         convergence E changes by less than it, and rejecting a step on that noise stalled
         Newton (float32 most).

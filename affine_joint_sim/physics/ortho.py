@@ -1,8 +1,9 @@
-"""Orthogonality potential ‖AAᵀ − I‖² (physics_spec §2): energy, gradient, PSD Hessian.
+"""Orthogonality potential ‖AAᵀ − I‖²: energy, gradient, PSD Hessian.
 
 Values are per unit κ·v̄; the incremental potential scales them by dt²·κ·v̄. The PSD Hessian
-is the closed-form eigensystem of one 3×3 SVD, negative modes dropped (design.md §8), added
-scaled into a given 12×12 block (no 12×12 temporary of its own).
+is the closed-form eigensystem of one 3×3 SVD, negative modes dropped, added scaled into a
+given 12×12 block (no 12×12 temporary of its own). docs/physics.md#orthogonality-potential
+gives the eigensystem.
 """
 
 from types import SimpleNamespace
@@ -44,7 +45,7 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def add_pair_modes(h: mat12, scale: scalar, u: mat33, sigma: vec3, v: mat33, i: int,
                        j: int):
-        """Twist and flip eigenpairs of the (i, j) singular-value pair (design.md §8)."""
+        """Twist and flip eigenpairs of the (i, j) singular-value pair."""
         si, sj = sigma[i], sigma[j]
         ui = vec3(u[0, i], u[1, i], u[2, i])
         uj = vec3(u[0, j], u[1, j], u[2, j])

@@ -1,8 +1,8 @@
-"""The incremental potential E(q) of one environment (physics_spec §3.3), for the line search.
+"""The incremental potential E(q) of one environment, for the line search.
 
 E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q)
 + Σ_joints φ(x(q)) (limit, drive, damping: physics.joint_terms); the joint terms carry no dt².
-kinetic_scale is 1 (BDF1) or 9/4 (BDF2).
+kinetic_scale is 1 (BDF1) or 9/4 (BDF2). See docs/physics.md#incremental-potential.
 """
 
 from types import SimpleNamespace

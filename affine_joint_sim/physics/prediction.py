@@ -1,4 +1,4 @@
-"""Prediction q̃ of every free body (physics_spec §3.2, §3.7 with a_ext, preface §2).
+"""Prediction q̃ of every free body (docs/physics.md#prediction).
 
 BDF1: q̃ = q_n + dt v_n + dt² a_g. BDF2: q̃ = 4/3 q_n − 1/3 q_{n−1} + 2dt/9 (4 v_n − v_{n−1})
 + 4/9 dt² a_g; it starts with one BDF1 step (the first, and the first after a reset). The

@@ -1,10 +1,10 @@
-"""The step kernel: one launch advances every environment by one dt (design.md §8).
+"""The step kernel: one launch steps every environment by dt (docs/architecture.md#the-step-kernel).
 
 One thread per environment: prediction, explicit commands, Newton with line search, then
 commit or reject and the statistics. No host sync inside a step. The kernel gets a Warp
 module of its own per precision (``module="unique"``) and no adjoint: nothing differentiates
-the step, and Warp's generated backward pass tripled its compile time (CPU, float64: 26.5 s
-with it, 8.2 s without).
+the step, and Warp's generated backward pass made it compile several times slower
+(docs/architecture.md#measured-figures).
 """
 
 from types import SimpleNamespace
@@ -21,7 +21,7 @@ def build(t) -> SimpleNamespace:
     integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
     newton, finish, largest_gap, write_stats = t.newton, t.finish, t.largest_gap, t.write_stats
 
-    @wp.kernel(module='unique', enable_backward=False)
+    @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def step(model: Model, state: State, control: Control, scratch: Scratch):
         env = wp.tid()
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env)

@@ -1,4 +1,4 @@
-"""Newton system solve: block-tree Cholesky, leaves first, O(bodies) (design.md §8).
+"""Newton system solve: block-tree Cholesky, leaves first, O(bodies) (docs/physics.md#tree-solve).
 
 The free bodies joined by joints form a forest; eliminating them in ``model.elim_order``
 (every body before its tree parent) factors H without fill-in: 12×12 blocks only.

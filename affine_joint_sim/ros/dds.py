@@ -18,6 +18,6 @@ def use_loopback_dds() -> None:
     # A random domain keeps concurrent runs apart; 1..101 stays clear of domain 0 and within
     # the ports Fast DDS can compute for a localhost domain.
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
-    # Cuts participant discovery from up to ~3 s to a few hundred ms (README, "DDS on loopback").
+    # Faster participant discovery (the figures: README, "DDS stays on loopback").
     os.environ.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE',
                           str(config_dir() / 'fastdds_fast_discovery.xml'))

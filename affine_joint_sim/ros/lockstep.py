@@ -1,13 +1,15 @@
-"""The lockstep gate: when a lockstep node may compute its next step (design.md §12).
+"""The lockstep gate: when a lockstep node may compute its next step (README.md#the-ros-2-node).
 
 After the node publishes the state stamped t_n it waits for ``publishers`` answers: command
-messages (``joint_commands``, ``effort_commands``) stamped t_n, or unstamped (stamp 0, which
-answers whatever state is current). A command stamped with another time answers a state that
-is gone (a controller that lags or restarted): it is dropped, counted and reported, so every
-step applies exactly the answers to its own state and the loop stays deterministic. An answer
-beyond ``publishers`` to one state (a controller answering the state again when it is
-republished, or more controllers than ``publishers``) still applies to that state's step, the
-latest command winning, but does not count towards the next state: it is counted as surplus.
+messages on the answer topics (``ros.topics.ANSWER_KEYS``: ``joint_commands``,
+``effort_commands``, ``position_commands``) stamped t_n, or unstamped (stamp 0, which answers
+whatever state is current; the array topics carry no stamp). A command stamped with another
+time answers a state that is gone (a controller that lags or restarted): it is dropped, counted
+and reported, so every step applies exactly the answers to its own state and the loop stays
+deterministic. An answer beyond ``publishers`` to one state (a controller answering the state
+again when it is republished, or more controllers than ``publishers``) still applies to that
+state's step, the latest command winning, but does not count towards the next state: it is
+counted as surplus.
 
 While it waits, the gate says when to publish the waiting state again (a controller that
 subscribed late with volatile QoS, or restarted, gets it) and when to log that it is waiting.

@@ -1,4 +1,4 @@
-"""The ``affine_joint_sim`` node: the Stepper behind ROS 2 topics and services (design.md §4).
+"""The ``affine_joint_sim`` node: the Stepper behind topics and services (README.md#the-ros-2-node).
 
 Two threads: an executor thread runs the subscription, service and parameter callbacks; the
 main thread steps. They share one lock, so a command whose callback ran before step n is
@@ -7,7 +7,7 @@ mode a ``LockstepGate`` decides when the next step may go: it counts the answers
 published state, drops stale ones, has the waiting state published again for controllers that
 join late, and has the node say what it waits for. Each step publishes ``joint_states`` (and
 ``/clock``) stamped with the step counter's simulated time. (Running the callbacks between
-steps in one thread would cost ~0.2 ms per step: rclpy builds its wait set in Python.) The
+steps in one thread would slow every step: rclpy builds its wait set in Python.) The
 node does no physics itself: its stepping is a ``SimLoop``, its bag a ``RunRecording``, and
 ``run_node`` is its process (signals, exit status, summary).
 """
@@ -26,6 +26,7 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from std_srvs.srv import SetBool, Trigger
 
+from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
@@ -95,7 +96,7 @@ class SimNode(Node):
         self._stopping = False                 # the run is over: requests are refused
         self.stop_requested = threading.Event()    # set by SIGINT/SIGTERM (see main)
         self._last_warning: dict[str, float] = {}
-        self._command_topics: list[BagTopic] = []
+        self._bag_topics: list[BagTopic] = []      # every topic published or taken
         self._make_interfaces()
         self.loop = SimLoop(self.sim, self.commands, self.pacer, self.gate)
         self.recording = RunRecording(self._open_bag(), self.get_logger().error)
@@ -123,11 +124,14 @@ class SimNode(Node):
     # ---- setup ------------------------------------------------------------------------------
 
     def _declare_parameters(self) -> dict:
+        """Declare every parameter with what ``ros2 param describe`` shows: its help, and
+        read-only unless it may change while the node runs (rclpy refuses a change to it).
+        Dynamic typing: ``-p duration:=5`` (an integer) is a valid float; ``check`` says what is
+        valid for every parameter."""
         config = {}
-        # dynamic typing: `-p duration:=5` (an integer) is a valid float; check() says what
-        # is valid for every parameter
-        descriptor = ParameterDescriptor(dynamic_typing=True)
         for name, spec in PARAMETERS.items():
+            descriptor = ParameterDescriptor(description=spec.help, read_only=not spec.live,
+                                             dynamic_typing=True)
             try:
                 value = self.declare_parameter(name, spec.default, descriptor).value
             except InvalidParameterTypeException as exc:
@@ -137,27 +141,20 @@ class SimNode(Node):
         return config
 
     def _make_interfaces(self):
-        t = self.topics
-        self.state_pub = self.create_publisher(t['joint_states'].msg_class,
-                                               t['joint_states'].name(), t['joint_states'].qos)
-        self.clock_pub = self.create_publisher(t['clock'].msg_class, t['clock'].name(),
-                                               t['clock'].qos)
-        self._joint_states = JointStateFiller(self.sim, t['joint_states'].msg_class)
-        self._clock_msg = t['clock'].msg_class()
+        self.state_pub = self._publisher('joint_states')
+        self.clock_pub = self._publisher('clock')
+        self._joint_states = JointStateFiller(self.sim, self.topics['joint_states'].msg_class)
+        self._clock_msg = self.topics['clock'].msg_class()
         # Latched: the scene as run, every default spelled out, for late joiners and bags.
-        self.scene_pub = self.create_publisher(t['scene'].msg_class, t['scene'].name(),
-                                               t['scene'].qos)
-        self.events_pub = self.create_publisher(t['events'].msg_class, t['events'].name(),
-                                                t['events'].qos)
+        self.scene_pub = self._publisher('scene')
+        self.events_pub = self._publisher('events')
         # Latched: the scene as a URDF (its own, or generated), for URDF viewers.
-        self.description_pub = self.create_publisher(
-            t['robot_description'].msg_class, t['robot_description'].name(),
-            t['robot_description'].qos)
-        self.viz = VizPublisher(self, self.sim, t, self.config['viz_rate'],
+        self.description_pub = self._publisher('robot_description')
+        self.viz = VizPublisher(self._publisher, self.sim, self.config['viz_rate'],
                                 self.config['frame_id'], self._publish_and_record,
                                 lambda: self.recording.active)
         for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
-            for key in JOINT_COMMAND_KEYS.get(kind, ()):
+            for key in JOINT_COMMAND_KEYS.get(joint_kind(kind).command, ()):
                 self._subscribe(key, joint)
         for key in ANSWER_KEYS:
             self._subscribe(key, None)
@@ -165,9 +162,17 @@ class SimNode(Node):
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
 
+    def _publisher(self, key: str):
+        """The publisher of topic ``key`` (topics.yaml), listed for the bag: every topic the
+        node publishes is created here, so the recorder knows it before its first message."""
+        topic = self.topics[key]
+        publisher = self.create_publisher(topic.msg_class, topic.name(), topic.qos)
+        self._bag_topics.append(BagTopic(publisher.topic_name, topic.type, topic.qos))
+        return publisher
+
     def _subscribe(self, key, joint):
         """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command; in
-        lockstep, a ``joint_commands`` message answers the state its stamp names (stale ones
+        lockstep, a message on an ANSWER_KEYS topic answers the state its stamp names (stale ones
         are dropped before they are recorded or applied)."""
         topic = self.topics[key]
         try:
@@ -215,20 +220,14 @@ class SimNode(Node):
                     self._reject(name, problem)
 
         self.create_subscription(msg_class, name, receive, topic.qos, raw=True)
-        self._command_topics.append(BagTopic(name, topic.type, topic.qos))
+        self._bag_topics.append(BagTopic(name, topic.type, topic.qos))
 
     def _open_bag(self):
         """The recorder (``record`` set), with every topic the node publishes or takes."""
         if not self.config['record']:
             return None
-        t = self.topics
-        keys = ['joint_states', 'clock', 'scene', 'robot_description', 'events',
-                *self.viz.publishers]
-        topics = self._command_topics + [
-            BagTopic(self.resolve_topic_name(t[key].name()), t[key].type, t[key].qos)
-            for key in keys]
         try:
-            return BagRecorder(self.config['record'], self.config['storage'], topics)
+            return BagRecorder(self.config['record'], self.config['storage'], self._bag_topics)
         except (FileExistsError, OSError) as exc:
             raise ConfigError(f"parameter 'record': {exc}") from None
 
@@ -317,16 +316,12 @@ class SimNode(Node):
         return response
 
     def _check_parameters(self, parameters):
-        """Refuse a change to a parameter that is fixed while running, or an invalid value."""
+        """Refuse an invalid value (rclpy has refused a read-only parameter already)."""
         if self._stopping:
             return SetParametersResult(successful=False, reason='the node is stopping')
         for p in parameters:
-            spec = PARAMETERS.get(p.name)
-            if spec is None:
+            if p.name not in PARAMETERS:
                 continue
-            if not spec.live:
-                return SetParametersResult(successful=False,
-                                           reason=f'{p.name} is fixed while the node runs')
             try:
                 check(p.name, p.value)
             except ConfigError as exc:

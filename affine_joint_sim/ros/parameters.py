@@ -1,4 +1,4 @@
-"""The node's parameters (design.md §4): defaults, valid ranges, and which may change live.
+"""The node's parameters (README.md#the-ros-2-node): defaults, valid ranges, which may change live.
 
 ``affine-joint-sim run`` builds one flag per parameter from ``PARAMETERS``, so the flags and a
 ``--ros-args --params-file`` YAML always mirror each other.
@@ -28,7 +28,8 @@ class ParameterSpec:
         choices: the valid values of a closed set, else None.
         minimum: the smallest valid number, else None.
         exclusive: whether ``minimum`` itself is invalid.
-        live: whether it may change while the node runs (``ros2 param set``).
+        live: whether it may change while the node runs (``ros2 param set``); the others
+            are declared read-only.
     """
 
     default: object

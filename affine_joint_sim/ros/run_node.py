@@ -23,10 +23,10 @@ def main(args=None, parameter_overrides=None) -> int:
     """Run the node until ``duration`` or SIGINT/SIGTERM; print the run's summary on stdout.
 
     The signals are this function's, not rclpy's: rclpy's handlers shut the context down at
-    once, under the executor thread and the bag writer, which crashed 1 run in ~20 with a
-    segfault at exit. Here a signal only asks the stepping loop to stop; the executor, the bag,
-    the node and then the context are closed in that order. (A signal while the node is still
-    being built interrupts the build.)
+    once, under the executor thread and the bag writer, which now and then crashed with a
+    segfault at exit (docs/architecture.md#measured-figures). Here a signal only asks the
+    stepping loop to stop; the executor, the bag, the node and then the context are closed in
+    that order. (A signal while the node is still being built interrupts the build.)
 
     Returns the exit status: 0, or 2 for an invalid parameter or scene (one line on stderr).
     """

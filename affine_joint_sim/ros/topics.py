@@ -24,9 +24,10 @@ TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable
 ANSWER_KEYS = ('joint_commands', 'effort_commands', 'position_commands')
 COMMAND_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
                 *ANSWER_KEYS)
-# The per-joint command topics of each joint type: (value [N·m | N], on/off switch).
-JOINT_COMMAND_KEYS = {'revolute': ('joint_torque', 'joint_enable'),
-                      'prismatic': ('joint_force', 'joint_force_enable')}
+# The per-joint command topics of each kind of command (JointKind.command): (value [N·m | N],
+# on/off switch).
+JOINT_COMMAND_KEYS = {'torque': ('joint_torque', 'joint_enable'),
+                      'force': ('joint_force', 'joint_force_enable')}
 
 _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
                 'best_effort': ReliabilityPolicy.BEST_EFFORT}

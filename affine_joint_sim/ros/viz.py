@@ -1,8 +1,8 @@
-"""The run made visible (design.md §11): ``markers`` (MarkerArray, one marker per shape of
-every body) and ``body_poses`` (PoseArray: every body, or every link frame of a URDF robot),
-both in ``frame_id`` and stamped with sim time, at ``viz_rate`` Hz of sim time; a DELETEALL
-on reset. Both messages are serialized once and then patched in place (``ros.patched``); the
-same bytes are published and recorded.
+"""The run made visible (README.md#seeing-a-run): ``markers`` (MarkerArray, one marker per
+shape of every body) and ``body_poses`` (PoseArray: every body, or every link frame of a URDF
+robot), both in ``frame_id`` and stamped with sim time, at ``viz_rate`` Hz of sim time; a
+DELETEALL on reset. Both messages are serialized once and then patched in place
+(``ros.patched``); the same bytes are published and recorded.
 """
 
 import math
@@ -96,9 +96,9 @@ class VizPublisher:
     """The node's ``markers`` and ``body_poses`` publishers and their schedule.
 
     Args:
-        node: the rclpy node.
-        sim: its Stepper.
-        topics: ``load_topics()``.
+        publisher: ``publisher(key)`` creates the node's publisher of topic ``key``
+            (``load_topics()``) and lists it for the node's bag.
+        sim: the node's Stepper.
         rate: ``viz_rate`` [Hz of sim time]; 0 creates nothing.
         frame_id: the frame the poses are in.
         publish: ``publish(publisher, msg or serialized bytes, t_ns)`` (publishes and records).
@@ -109,15 +109,14 @@ class VizPublisher:
 
     KEYS = ('markers', 'body_poses')
 
-    def __init__(self, node, sim, topics, rate: float, frame_id: str, publish, recording):
+    def __init__(self, publisher, sim, rate: float, frame_id: str, publish, recording):
         self.schedule = VizSchedule(rate)
         self._publish, self._recording = publish, recording
         self.publishers = {}
         if rate <= 0.0:
             return
         self.messages = VizMessages(sim, frame_id)
-        self.publishers = {key: node.create_publisher(topics[key].msg_class, topics[key].name(),
-                                                      topics[key].qos) for key in self.KEYS}
+        self.publishers = {key: publisher(key) for key in self.KEYS}
 
     def publish(self, sim_time_ns: int, t_ns: int) -> None:
         """Publish (and record) the views of the current state if they are due."""

@@ -1,5 +1,5 @@
-"""Robots from URDF files (design.md §10): reading, mass properties, conversion to a Scene."""
+"""Robots from URDF files (README.md#robots-from-urdf): reading, mass properties, conversion."""
 
-from affine_joint_sim.urdf.convert import ANCHOR_HALF_LENGTH, UrdfOptions, scene_from_urdf
+from affine_joint_sim.urdf.convert import ANCHOR_HALF_LENGTH, UrdfOptions, urdf_scene_data
 
-__all__ = ['scene_from_urdf', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']
+__all__ = ['urdf_scene_data', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']

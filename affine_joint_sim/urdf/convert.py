@@ -1,4 +1,4 @@
-"""A URDF robot as a scene (design.md §10): bodies, joints and link frames.
+"""A URDF robot as a scene (README.md#robots-from-urdf): bodies, joints and link frames.
 
 What becomes what:
 - Links welded by ``fixed`` joints are one body (mass, COM and inertia combined by the
@@ -22,21 +22,21 @@ What becomes what:
 import math
 import warnings
 
-from typing import Annotated
-
 import numpy as np
-from pydantic import Field, ValidationError
+from pydantic import ValidationError
 
-from affine_joint_sim.physics.model import SimulationWarning
-from affine_joint_sim.scene import (Number, SceneError, Solver, Vec3, _Strict,
+from affine_joint_sim import portable_math as pm
+from affine_joint_sim.physics.mass import inertia_mass_properties
+from affine_joint_sim.rotations import axis_rotation, quaternion_from_matrix
+from affine_joint_sim.scene import (Number, SceneError, SceneName, SceneSettings,
                                     validation_report)
+from affine_joint_sim.sim_warnings import SimulationWarning
 from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
                                            principal_frame)
-from affine_joint_sim.physics.mass import inertia_mass_properties
 from affine_joint_sim.urdf.read import read_urdf
-from affine_joint_sim.urdf.visuals import link_visuals, quaternion
+from affine_joint_sim.urdf.visuals import link_visuals
 
-__all__ = ['scene_from_urdf', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']
+__all__ = ['urdf_scene_data', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']
 
 # Half the distance between a joint's two axis points x0, x1 [m]: the hinge's stiffness against
 # bending grows with its square (0.1 m halves the gap of the arm6 falling onto its limits).
@@ -45,13 +45,11 @@ ANCHOR_HALF_LENGTH = 0.1
 _MOVING = ('revolute', 'continuous', 'prismatic')
 
 
-class UrdfOptions(_Strict):
-    """The overrides of a URDF scene (a scene YAML's keys beside ``urdf:``)."""
+class UrdfOptions(SceneSettings):
+    """The overrides of a URDF scene (a scene YAML's keys beside ``urdf:``): the scene
+    settings, ``name`` defaulting to the robot's, and how the robot becomes bodies."""
 
-    name: str | None = None
-    dt: Annotated[Number, Field(ge=1.0e-6)] = 0.01
-    gravity: Vec3 = (0.0, 0.0, -9.81)
-    solver: Solver = Solver()
+    name: SceneName | None = None       # None: the robot's name, else the file's stem
     fixed_base: bool = True
     merge_fixed: bool = True
     initial_positions: dict[str, Number] = {}
@@ -59,9 +57,10 @@ class UrdfOptions(_Strict):
     joints: dict[str, dict] = {}
 
 
-def scene_from_urdf(scene_cls, path, overrides: dict, source: str):
-    """Build the Scene of the URDF at ``path``; SceneError naming ``source`` on bad input,
-    a SimulationWarning for each URDF feature simulated differently from what it says."""
+def urdf_scene_data(path, overrides: dict, source: str) -> tuple[dict, str]:
+    """The scene dict (for ``Scene.from_dict``) of the URDF at ``path`` with ``overrides``
+    (``UrdfOptions``), and the URDF text. SceneError naming ``source`` on bad input, a
+    SimulationWarning for each URDF feature simulated differently from what it says."""
     try:
         options = UrdfOptions.model_validate(overrides)
     except ValidationError as exc:
@@ -69,10 +68,7 @@ def scene_from_urdf(scene_cls, path, overrides: dict, source: str):
     text, robot, notes = read_urdf(path)
     for note in notes:
         _warn(note)
-    data = _Converter(robot, options, path).scene_dict()
-    scene = scene_cls.from_dict(data, source=source)
-    scene._robot_description = text
-    return scene
+    return _Converter(robot, options, path).scene_dict(), text
 
 
 def _warn(message: str) -> None:
@@ -140,7 +136,7 @@ class _Converter:
                     self._fail(f'joint {joint.name!r}: its {side} link '
                                f'{getattr(joint, side)!r} is not defined')
         for joint in self.robot.joints:
-            norm = np.linalg.norm(_raw_axis(joint))
+            norm = pm.norm(_raw_axis(joint))
             if joint.type in _MOVING and not (np.isfinite(norm) and norm > 1e-9):
                 self._fail(f'joint {joint.name!r}: <axis xyz> must be a non-zero vector (got '
                            f'{list(_raw_axis(joint))})')
@@ -191,8 +187,8 @@ class _Converter:
         poses = {self.root: np.eye(4)}
         for link in self.order[1:]:
             joint = self.joint_of[link]
-            poses[link] = poses[joint.parent] @ _origin(joint) @ _motion(
-                joint, self._joint_position(joint))
+            poses[link] = pm.matmul(pm.matmul(poses[joint.parent], _origin(joint)),
+                                    _motion(joint, self._joint_position(joint)))
         return poses
 
     # ---- bodies --------------------------------------------------------------------------
@@ -246,13 +242,13 @@ class _Converter:
             pose[:3, :3], pose[:3, 3] = axes, inertia.com
             body = {'name': name, 'mass': inertia.mass, 'inertia': [float(m) for m in moments],
                     'position': _list(inertia.com),
-                    'orientation': {'quat_xyzw': quaternion(axes)}}
+                    'orientation': {'quat_xyzw': quaternion_from_matrix(axes)}}
         frames = []
         for link in links:
-            local = np.linalg.inv(pose) @ self.poses[link]
+            local = pm.matmul(_rigid_inverse(pose), self.poses[link])
             self.local[link] = local
             frames.append({'name': link, 'body': name, 'position': _list(local[:3, 3]),
-                           'orientation': {'quat_xyzw': quaternion(local[:3, :3])}})
+                           'orientation': {'quat_xyzw': quaternion_from_matrix(local[:3, :3])}})
         return body, frames
 
     # ---- joints --------------------------------------------------------------------------
@@ -273,8 +269,8 @@ class _Converter:
                'parent': self.body_of[joint.parent], 'child': self.body_of[joint.child]}
         if kind == 'fixed':
             return out
-        frame = self.poses[joint.parent] @ _origin(joint)
-        axis = frame[:3, :3] @ _axis(joint)
+        frame = pm.matmul(self.poses[joint.parent], _origin(joint))
+        axis = pm.matmul(frame[:3, :3], _axis(joint))
         out['x0'] = _list(frame[:3, 3] - ANCHOR_HALF_LENGTH * axis)
         out['x1'] = _list(frame[:3, 3] + ANCHOR_HALF_LENGTH * axis)
         out['initial_position'] = self._joint_position(joint)
@@ -366,9 +362,10 @@ class _Converter:
         visuals = link_visuals(self.robot, self.local, self.body_of, options.package_paths,
                                self.path.parent, {b['name']: _size(b) for b in bodies},
                                lambda message: _warn(f'{self.path}: {message}'))
-        return {'name': options.name or self.robot.name or self.path.stem, 'dt': options.dt,
-                'gravity': list(options.gravity), 'solver': options.solver.model_dump(),
-                'bodies': bodies, 'joints': joints, 'frames': frames, 'visuals': visuals}
+        settings = options.model_dump(include=set(SceneSettings.model_fields))
+        settings['name'] = options.name or self.robot.name or self.path.stem
+        return {**settings, 'bodies': bodies, 'joints': joints, 'frames': frames,
+                'visuals': visuals}
 
     def _overridden(self, joints: list[dict]) -> list[dict]:
         """Apply the ``joints: {name: {key: value}}`` overrides."""
@@ -393,16 +390,22 @@ def _raw_axis(joint) -> np.ndarray:
 def _axis(joint) -> np.ndarray:
     """The joint's unit axis in its joint frame (checked non-zero by the converter)."""
     axis = _raw_axis(joint)
-    return axis / np.linalg.norm(axis)
+    return axis / pm.norm(axis)
+
+
+def _rigid_inverse(pose: np.ndarray) -> np.ndarray:
+    """The inverse [[Rᵀ, −Rᵀ p], [0, 1]] of a rigid 4×4 pose."""
+    out = np.eye(4)
+    out[:3, :3] = pose[:3, :3].T
+    out[:3, 3] = -pm.matmul(pose[:3, :3].T, pose[:3, 3])
+    return out
 
 
 def _motion(joint, position: float) -> np.ndarray:
     """The child's pose in the joint frame at coordinate ``position`` [rad | m]."""
     out = np.eye(4)
     if joint.type in ('revolute', 'continuous'):
-        a = _axis(joint)
-        k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-        out[:3, :3] = np.eye(3) + math.sin(position) * k + (1.0 - math.cos(position)) * k @ k
+        out[:3, :3] = axis_rotation(_axis(joint), position)
     elif joint.type == 'prismatic':
         out[:3, 3] = position * _axis(joint)
     return out

@@ -1,4 +1,4 @@
-"""Mass properties of URDF links as affine bodies (physics_spec preface item 10).
+"""Mass properties of URDF links as affine bodies (docs/physics.md#urdf-inertials).
 
 A link's ``<inertial>`` gives its mass m, its centre of mass and its inertia tensor I about the
 centre of mass in the inertial frame. Links welded together combine by the parallel-axis rule.
@@ -8,6 +8,8 @@ world frame at t = 0 unless said otherwise; NumPy float64.
 """
 
 import numpy as np
+
+from affine_joint_sim import portable_math as pm
 
 __all__ = ['LinkInertia', 'combine', 'principal_frame', 'physical_moments', 'MIN_MOMENT_RATIO',
            'MIN_RADIUS']
@@ -34,10 +36,10 @@ class LinkInertia:
         if inertial is None or not inertial.mass:
             return cls(0.0, link_pose[:3, 3], np.zeros((3, 3)))
         origin = np.eye(4) if inertial.origin is None else inertial.origin
-        pose = link_pose @ origin
+        pose = pm.matmul(link_pose, origin)
         tensor = np.zeros((3, 3)) if inertial.inertia is None else inertial.inertia
         rot = pose[:3, :3]
-        return cls(inertial.mass, pose[:3, 3], rot @ tensor @ rot.T)
+        return cls(inertial.mass, pose[:3, 3], pm.matmul(pm.matmul(rot, tensor), rot.T))
 
 
 def combine(parts: list[LinkInertia]) -> LinkInertia:
@@ -50,17 +52,15 @@ def combine(parts: list[LinkInertia]) -> LinkInertia:
     inertia = np.zeros((3, 3))
     for part in parts:
         d = part.com - com
-        inertia += part.inertia + part.mass * (d @ d * np.eye(3) - np.outer(d, d))
+        inertia += part.inertia + part.mass * (pm.dot(d, d) * np.eye(3) - np.outer(d, d))
     return LinkInertia(mass, com, inertia)
 
 
 def principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments (ascending) and the world←principal rotation (columns = axes,
-    det +1) of a symmetric inertia tensor."""
-    moments, axes = np.linalg.eigh(0.5 * (inertia + inertia.T))
-    if np.linalg.det(axes) < 0.0:
-        axes[:, 2] = -axes[:, 2]
-    return moments, axes
+    det +1, one definite choice where moments are equal: ``portable_math.symmetric_eigen``)
+    of a symmetric inertia tensor."""
+    return pm.symmetric_eigen(0.5 * (inertia + inertia.T))
 
 
 def physical_moments(mass: float, moments: np.ndarray) -> tuple[np.ndarray, str | None]:

@@ -4,14 +4,19 @@ yourdfpy parses the elements but reports a missing attribute as a bare ``KeyErro
 refuses a file for geometry it does not know (``<capsule>``); the checks here come first so
 that a user reads which element on which line is wrong, and the geometry the simulator never
 uses cannot stop a robot from loading: ``<collision>`` elements are dropped, and a visual whose
-geometry yourdfpy cannot read is dropped with a note.
+geometry yourdfpy cannot read is dropped with a note. The poses the simulation uses (joint and
+inertial ``<origin>``) are computed again with ``rotations.pose_matrix``: yourdfpy's come from
+the C library's sin and cos and BLAS, which round differently on other machines
+(docs/physics.md#reproducibility).
 """
 
 import io
 import logging
 
+import numpy as np
 from lxml import etree
 
+from affine_joint_sim.rotations import pose_matrix
 from affine_joint_sim.scene import SceneError
 
 __all__ = ['read_urdf', 'JOINT_TYPES']
@@ -41,7 +46,29 @@ def read_urdf(path):
     except (UnicodeDecodeError, LookupError) as exc:
         raise SceneError(f'{path}: not {encoding} text as it declares ({exc})') from None
     notes = _drop_unused_geometry(root)
-    return text, _parse(path, etree.tostring(root)), [f'{path}: {note}' for note in notes]
+    robot = _parse(path, etree.tostring(root))
+    _portable_origins(root, robot)
+    return text, robot, [f'{path}: {note}' for note in notes]
+
+
+def _portable_origins(root, robot) -> None:
+    """Replace the origins of ``robot``'s joints and inertials by the portable poses of the
+    same ``<origin xyz rpy>`` (yourdfpy has parsed and checked them already)."""
+    joints = {joint.name: joint for joint in robot.joints}
+    links = {link.name: link for link in robot.links}
+    for element in root.findall('joint'):
+        joint, origin = joints.get(element.get('name')), element.find('origin')
+        if joint is not None and origin is not None:
+            joint.origin = _pose(origin)
+    for element in root.findall('link'):
+        link, origin = links.get(element.get('name')), element.find('inertial/origin')
+        if link is not None and link.inertial is not None and origin is not None:
+            link.inertial.origin = _pose(origin)
+
+
+def _pose(origin) -> np.ndarray:
+    return pose_matrix([float(v) for v in origin.get('xyz', '0 0 0').split()],
+                       [float(v) for v in origin.get('rpy', '0 0 0').split()])
 
 
 def _drop_unused_geometry(root) -> list[str]:

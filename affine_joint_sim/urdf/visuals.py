@@ -7,6 +7,7 @@ size of ``fallback`` [m].
 
 import numpy as np
 
+from affine_joint_sim.rotations import quaternion_from_matrix
 from affine_joint_sim.urdf.packages import resolve_uri
 
 __all__ = ['link_visuals']
@@ -35,7 +36,7 @@ def link_visuals(robot, local: dict, body_of: dict, package_paths: dict, urdf_di
                                  fallback[body_of[link.name]], warn)
             entry = {'body': body_of[link.name], 'geometry': geometry,
                      'position': [float(x) for x in pose[:3, 3]],
-                     'orientation': {'quat_xyzw': quaternion(pose[:3, :3])}}
+                     'orientation': {'quat_xyzw': quaternion_from_matrix(pose[:3, :3])}}
             material = visual.material
             color = _rgba(material) if material is not None else None
             if color is None and material is not None:
@@ -72,20 +73,3 @@ def _geometry(link: str, geometry, package_paths, urdf_dir, fallback, warn) -> d
     return {'mesh': {'uri': mesh.filename, 'path': None if path is None else str(path.resolve()),
                      'scale': [float(s) for s in scale],
                      'fallback': [float(s) for s in fallback]}}
-
-
-def quaternion(rot: np.ndarray) -> list[float]:
-    """Unit quaternion [x, y, z, w] of a rotation matrix (Shepperd's method)."""
-    m = rot
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    if trace > 0.0:
-        s = 2.0 * np.sqrt(1.0 + trace)
-        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, s / 4]
-    else:
-        i = int(np.argmax(np.diag(m)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * np.sqrt(max(1.0 + m[i, i] - m[j, j] - m[k, k], 0.0))
-        q = [0.0, 0.0, 0.0, (m[k, j] - m[j, k]) / s]
-        q[i], q[j], q[k] = s / 4, (m[j, i] + m[i, j]) / s, (m[k, i] + m[i, k]) / s
-    norm = float(np.sqrt(sum(c * c for c in q)))
-    return [float(c) / norm for c in q]

@@ -17,7 +17,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from affine_joint_sim.physics.mass import body_mass_properties
-from affine_joint_sim.physics.model import rotation_matrix
+from affine_joint_sim.rotations import axis_rotation, rotation_matrix
 from affine_joint_sim.viz.drawables import drawables
 
 __all__ = ['robot_description']
@@ -30,11 +30,6 @@ def robot_description(scene) -> str:
     if scene.robot_description is not None:
         return scene.robot_description
     return _Generator(scene).urdf()
-
-
-def _turn(axis, angle: float) -> np.ndarray:
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
 
 
 def _xyz(v) -> str:
@@ -138,7 +133,7 @@ class _Generator:
         at_zero = self.frame[child].copy()       # turned (moved) back by its initial position
         x = sign * joint.initial_position
         if joint.type == 'revolute':
-            at_zero[:3, :3] = _turn(axis, -x) @ at_zero[:3, :3]
+            at_zero[:3, :3] = axis_rotation(axis, -x) @ at_zero[:3, :3]
         else:
             at_zero[:3, 3] -= x * axis
         origin = np.linalg.inv(self.frame[parent]) @ at_zero

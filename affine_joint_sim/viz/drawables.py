@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from affine_joint_sim.physics.model import rotation_matrix
+from affine_joint_sim.rotations import rotation_matrix
 
 __all__ = ['Drawable', 'drawables', 'PALETTE']
 

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from affine_joint_sim.physics.model import quaternion_matrix
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
 from affine_joint_sim.progress import Progress
+from affine_joint_sim.rotations import quaternion_matrix
 from affine_joint_sim.viz.drawables import drawables
 
 __all__ = ['RenderError', 'Track', 'load_track', 'render', 'frame_times']

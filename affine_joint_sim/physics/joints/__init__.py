@@ -1,21 +1,44 @@
 """Joint types: one module per type, and the one dispatch point on ``model.joint_type``.
 
-Every joint type provides its constraint energy, its gradients on the parent and the child,
-the Gauss–Newton blocks of its non-linear terms, its largest gap, its coordinate x(q) with
-gradient, and its explicit command; the functions here pick the type's function per joint,
-so the stages (assembly, prediction, commit) never branch on types. Fixed joints have no
-coordinate (0) and no command.
+Each type of ``physics.joint_kinds.JOINT_KINDS`` has a module here named after it whose
+``build(t)`` provides every Warp function of ``PROTOCOL`` (a type without a coordinate or a
+command provides explicit no-ops) and whose host functions ``linear_pairs`` and
+``nonlinear_residuals`` give its residuals to the model build and the host energy. The
+dispatchers here loop over the types at compile time (``wp.static``), so every dispatcher
+covers every type and the stages (assembly, prediction, commit) never branch on types. A code
+that names no type (the model build refuses one) takes every dispatcher's zero branch.
 """
 
+import importlib
 import math
 from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import FIXED, PRISMATIC, REVOLUTE
-from affine_joint_sim.physics.joints import fixed, prismatic, revolute
+from affine_joint_sim.physics.joint_kinds import JOINT_KINDS
 
-__all__ = ['build']
+__all__ = ['build', 'PROTOCOL', 'HOST_PROTOCOL', 'type_module', 'host_functions']
+
+# The Warp functions every type provides, each taking (model, qp, qc, k, ...):
+PROTOCOL = ('energy',                # constraint energy [J·s²] (no dt²)
+            'gradients',             # (∇_P, ∇_C) of the energy
+            'state_blocks',          # Gauss–Newton blocks of non-linear terms, and 1; or 0
+            'gap',                   # largest constraint gap [m]
+            'coordinate',            # x(q) from its value at t = 0 [rad | m], 0 if none
+            'coordinate_gradients',  # (∇_P x, ∇_C x)
+            'apply_command')         # add scale·a_ext of a torque or force to q̃; 1 if dropped
+# ... and the host (NumPy) functions of its residuals, for the model build and the energy:
+HOST_PROTOCOL = ('linear_pairs', 'nonlinear_residuals')
+
+
+def type_module(kind):
+    """The module of joint type ``kind`` (a JointKind), ``physics/joints/<kind.name>.py``."""
+    return importlib.import_module(f'{__name__}.{kind.name}')
+
+
+def host_functions(code: int):
+    """The module of the type whose code is ``code`` (for its host functions)."""
+    return type_module(JOINT_KINDS[code])
 
 
 def build(t) -> SimpleNamespace:
@@ -24,14 +47,26 @@ def build(t) -> SimpleNamespace:
     zero, two_pi = t.zero, t.two_pi
     alias_limit = scalar(0.9 * math.pi)   # |Δθ| per step [rad] beyond which angles alias
     Model, Scratch = t.structs.Model, t.structs.Scratch
-    rev, pri, fix = revolute.build(t), prismatic.build(t), fixed.build(t)
-    rev_energy, pri_energy, fix_energy = rev.energy, pri.energy, fix.energy
-    rev_gradients, pri_gradients, fix_gradients = rev.gradients, pri.gradients, fix.gradients
-    rev_gap, pri_gap, fix_gap = rev.gap, pri.gap, fix.gap
-    rev_angle, pri_distance = rev.angle, pri.distance
-    rev_angle_gradients, pri_distance_gradients = rev.angle_gradients, pri.distance_gradients
-    pri_state_blocks = pri.state_blocks
-    rev_apply_torque, pri_apply_force = rev.apply_torque, pri.apply_force
+    impls = [type_module(kind).build(t) for kind in JOINT_KINDS]
+    codes = [kind.code for kind in JOINT_KINDS]
+    count = len(JOINT_KINDS)
+
+    def per_type(flags):
+        """A Warp function (model, k) -> flags[i] of joint k's type i (0 for no type)."""
+        @wp.func
+        def flag(model: Model, k: int):
+            kind = model.joint_type[k]
+            out = int(0)
+            for i in range(wp.static(count)):
+                if kind == wp.static(codes[i]):
+                    out = wp.static(flags[i])
+            return out
+        return flag
+
+    # 1 if joint k's coordinate is an angle (a revolute joint's)
+    joint_is_periodic = per_type([int(kind.periodic) for kind in JOINT_KINDS])
+    # 1 if joint k takes a torque or force command (a weld takes none)
+    joint_takes_command = per_type([int(kind.command is not None) for kind in JOINT_KINDS])
 
     @wp.func
     def joint_energy(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int):
@@ -40,12 +75,9 @@ def build(t) -> SimpleNamespace:
         qc = q[env, model.joint_child[k]]
         kind = model.joint_type[k]
         out = zero
-        if kind == REVOLUTE:
-            out = rev_energy(model, qp, qc, k)
-        elif kind == PRISMATIC:
-            out = pri_energy(model, qp, qc, k)
-        else:
-            out = fix_energy(model, qp, qc, k)
+        for i in range(wp.static(count)):
+            if kind == wp.static(codes[i]):
+                out = wp.static(impls[i].energy)(model, qp, qc, k)
         return out
 
     @wp.func
@@ -56,26 +88,25 @@ def build(t) -> SimpleNamespace:
         kind = model.joint_type[k]
         g_parent = vec12()
         g_child = vec12()
-        if kind == REVOLUTE:
-            g_parent, g_child = rev_gradients(model, qp, qc, k)
-        elif kind == PRISMATIC:
-            g_parent, g_child = pri_gradients(model, qp, qc, k)
-        else:
-            g_parent, g_child = fix_gradients(model, qp, qc, k)
+        for i in range(wp.static(count)):
+            if kind == wp.static(codes[i]):
+                g_parent, g_child = wp.static(impls[i].gradients)(model, qp, qc, k)
         return g_parent, g_child
 
     @wp.func
     def joint_state_blocks(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int):
         """(H_PP, H_PC, H_CC, 1) of joint k's constraint terms that are not linear in q (the
         linear ones are in the model's constant blocks), or zeros and 0 when it has none."""
+        qp = q[env, model.joint_parent[k]]
+        qc = q[env, model.joint_child[k]]
+        kind = model.joint_type[k]
         h_pp = mat12()
         h_pc = mat12()
         h_cc = mat12()
         has = int(0)
-        if model.joint_type[k] == PRISMATIC:
-            h_pp, h_pc, h_cc = pri_state_blocks(model, q[env, model.joint_parent[k]],
-                                                q[env, model.joint_child[k]], k)
-            has = 1
+        for i in range(wp.static(count)):
+            if kind == wp.static(codes[i]):
+                h_pp, h_pc, h_cc, has = wp.static(impls[i].state_blocks)(model, qp, qc, k)
         return h_pp, h_pc, h_cc, has
 
     @wp.func
@@ -85,12 +116,9 @@ def build(t) -> SimpleNamespace:
         qc = q[env, model.joint_child[k]]
         kind = model.joint_type[k]
         out = zero
-        if kind == REVOLUTE:
-            out = rev_gap(model, qp, qc, k)
-        elif kind == PRISMATIC:
-            out = pri_gap(model, qp, qc, k)
-        else:
-            out = fix_gap(model, qp, qc, k)
+        for i in range(wp.static(count)):
+            if kind == wp.static(codes[i]):
+                out = wp.static(impls[i].gap)(model, qp, qc, k)
         return out
 
     @wp.func
@@ -101,28 +129,27 @@ def build(t) -> SimpleNamespace:
         qc = q[env, model.joint_child[k]]
         kind = model.joint_type[k]
         out = zero
-        if kind == REVOLUTE:
-            out = rev_angle(model, qp, qc, k)
-        elif kind == PRISMATIC:
-            out = pri_distance(model, qp, qc, k)
+        for i in range(wp.static(count)):
+            if kind == wp.static(codes[i]):
+                out = wp.static(impls[i].coordinate)(model, qp, qc, k)
         return out + model.joint_initial_position[k]
 
     @wp.func
     def joint_coordinate_step(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int,
                               previous: scalar):
-        """Δx from the last committed coordinate ``previous`` to the state q; a revolute Δθ is
-        taken in (−π, π] (multi-turn unwrap, physics_spec §5.3)."""
+        """Δx from the last committed coordinate ``previous`` to the state q; an angle's Δθ is
+        taken in (−π, π] (multi-turn unwrap, docs/physics.md#joint-coordinate)."""
         delta = joint_raw_coordinate(model, q, env, k) - previous
-        if model.joint_type[k] == REVOLUTE:
+        if joint_is_periodic(model, k) == 1:
             delta = delta - two_pi * wp.round(delta / two_pi)
         return delta
 
     @wp.func
     def joint_step_aliases(model: Model, k: int, step: scalar):
-        """1 if a coordinate increment ``step`` cannot be told from one a turn apart: a
-        revolute Δθ beyond 0.9π (physics_spec §5.3)."""
+        """1 if a coordinate increment ``step`` cannot be told from one a turn apart: an
+        angle's Δθ beyond 0.9π (docs/physics.md#joint-coordinate)."""
         out = int(0)
-        if model.joint_type[k] == REVOLUTE and wp.abs(step) > alias_limit:
+        if joint_is_periodic(model, k) == 1 and wp.abs(step) > alias_limit:
             out = 1
         return out
 
@@ -134,19 +161,10 @@ def build(t) -> SimpleNamespace:
         kind = model.joint_type[k]
         g_parent = vec12()
         g_child = vec12()
-        if kind == REVOLUTE:
-            g_parent, g_child = rev_angle_gradients(model, qp, qc, k)
-        elif kind == PRISMATIC:
-            g_parent, g_child = pri_distance_gradients(model, qp, qc, k)
+        for i in range(wp.static(count)):
+            if kind == wp.static(codes[i]):
+                g_parent, g_child = wp.static(impls[i].coordinate_gradients)(model, qp, qc, k)
         return g_parent, g_child
-
-    @wp.func
-    def joint_takes_command(model: Model, k: int):
-        """1 if joint k takes a torque or force command (a fixed joint takes none)."""
-        out = int(1)
-        if model.joint_type[k] == FIXED:
-            out = 0
-        return out
 
     @wp.func
     def joint_apply_command(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
@@ -157,10 +175,10 @@ def build(t) -> SimpleNamespace:
         qc = q[env, model.joint_child[k]]
         kind = model.joint_type[k]
         dropped = int(0)
-        if kind == REVOLUTE:
-            dropped = rev_apply_torque(model, qp, qc, scratch, env, k, command, scale)
-        elif kind == PRISMATIC:
-            pri_apply_force(model, qp, qc, scratch, env, k, command, scale)
+        for i in range(wp.static(count)):
+            if kind == wp.static(codes[i]):
+                dropped = wp.static(impls[i].apply_command)(model, qp, qc, scratch, env, k,
+                                                            command, scale)
         return dropped
 
     return SimpleNamespace(joint_energy=joint_energy, joint_gradients=joint_gradients,
@@ -170,6 +188,4 @@ def build(t) -> SimpleNamespace:
                            joint_step_aliases=joint_step_aliases,
                            joint_coordinate_gradients=joint_coordinate_gradients,
                            joint_takes_command=joint_takes_command,
-                           joint_apply_command=joint_apply_command,
-                           lever_arm_force=rev.lever_arm_force,
-                           couple_acceleration=rev.couple_acceleration)
+                           joint_apply_command=joint_apply_command)

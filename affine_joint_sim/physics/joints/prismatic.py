@@ -1,4 +1,4 @@
-"""Prismatic joint (UID 20) and its scalar force (UID 667): libuipc's specs, physics_spec §9.
+"""Prismatic joint (UID 20) and its scalar force (UID 667): docs/physics.md#prismatic-joint.
 
 With c_k = x_k(c̄_k) the anchor (x0 at t = 0) and t_k = A_k t̄_k, n_k, b_k the joint frame on
 each body, δ = c_C − c_P: energy K/2 (|δ × t_P|² + |δ × t_C|² + |n_P − n_C|² + |b_P − b_C|²).
@@ -10,9 +10,10 @@ f [N] acts along the symmetrised axis ê = ½(t̂_P + t̂_C): +f ê on the child
 
 from types import SimpleNamespace
 
+import numpy as np
 import warp as wp
 
-__all__ = ['build']
+__all__ = ['build', 'linear_pairs', 'nonlinear_residuals']
 
 
 def build(t) -> SimpleNamespace:
@@ -87,7 +88,7 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def state_blocks(model: Model, qp: vec12, qc: vec12, k: int):
-        """Gauss–Newton blocks (H_PP, H_PC, H_CC) of the axis terms."""
+        """Gauss–Newton blocks (H_PP, H_PC, H_CC, 1) of the axis terms."""
         delta, tp, tc = frame(model, qp, qc, k)
         stiffness = model.joint_stiffness[k]
         h_pp = mat12()
@@ -98,7 +99,7 @@ def build(t) -> SimpleNamespace:
             h_pp += stiffness * (wp.outer(g0p, g0p) + wp.outer(g1p, g1p))
             h_pc += stiffness * (wp.outer(g0p, g0c) + wp.outer(g1p, g1c))
             h_cc += stiffness * (wp.outer(g0c, g0c) + wp.outer(g1c, g1c))
-        return h_pp, h_pc, h_cc
+        return h_pp, h_pc, h_cc, int(1)
 
     @wp.func
     def gap(model: Model, qp: vec12, qc: vec12, k: int):
@@ -107,13 +108,13 @@ def build(t) -> SimpleNamespace:
         return wp.length(wp.cross(delta, wp.normalize(tp)))
 
     @wp.func
-    def distance(model: Model, qp: vec12, qc: vec12, k: int):
+    def coordinate(model: Model, qp: vec12, qc: vec12, k: int):
         """d(q) = ½ δ·(t_P + t_C) [m]."""
         delta, tp, tc = frame(model, qp, qc, k)
         return half * wp.dot(delta, tp + tc)
 
     @wp.func
-    def distance_gradients(model: Model, qp: vec12, qc: vec12, k: int):
+    def coordinate_gradients(model: Model, qp: vec12, qc: vec12, k: int):
         """(∇_P d, ∇_C d)."""
         delta, tp, tc = frame(model, qp, qc, k)
         axis_sum = half * (tp + tc)
@@ -124,9 +125,10 @@ def build(t) -> SimpleNamespace:
         return g_parent, g_child
 
     @wp.func
-    def apply_force(model: Model, qp: vec12, qc: vec12, scratch: Scratch, env: int, k: int,
-                    force: scalar, scale: scalar):
-        """Add scale·a_ext of the axial force f [N] at the start-of-step state to q̃."""
+    def apply_command(model: Model, qp: vec12, qc: vec12, scratch: Scratch, env: int, k: int,
+                      force: scalar, scale: scalar):
+        """Add scale·a_ext of the axial force f [N] at the start-of-step state to q̃.
+        Returns 0 (a force is never dropped)."""
         e_child = half * (wp.normalize(affine(qp) @ model.joint_parent_axis[k])
                           + wp.normalize(affine(qc) @ model.joint_child_axis[k]))
         bp = model.joint_parent[k]
@@ -137,7 +139,20 @@ def build(t) -> SimpleNamespace:
         if model.body_fixed[bc] == 0:
             scratch.q_tilde[env, bc] += translation_part(
                 force * (scale / model.body_mass[bc]) * e_child)
+        return int(0)
 
     return SimpleNamespace(energy=energy, gradients=gradients, state_blocks=state_blocks,
-                           gap=gap, distance=distance, distance_gradients=distance_gradients,
-                           apply_force=apply_force)
+                           gap=gap, coordinate=coordinate,
+                           coordinate_gradients=coordinate_gradients, apply_command=apply_command)
+
+
+def linear_pairs(point, direction) -> list:
+    """The (J_P, J_C) of its linear residuals: the normal and binormal differences."""
+    return [direction('normal'), direction('binormal')]
+
+
+def nonlinear_residuals(point, direction, qp, qc) -> list:
+    """The axis residuals δ × t_P and δ × t_C at states qp, qc [(..., 12)] (host NumPy)."""
+    (jp, jc), (ap, ac) = point(0), direction('axis')
+    delta = qc @ jc.T - qp @ jp.T
+    return [np.cross(delta, qp @ ap.T), np.cross(delta, qc @ ac.T)]

@@ -1,10 +1,10 @@
-"""Revolute joint (UID 18) and its scalar torque (UID 668): physics_spec §4–§6.
+"""Revolute joint (UID 18) and its scalar torque (UID 668): docs/physics.md#revolute-joint.
 
 Energy K/2 (|d0|² + |d1|²) with anchor gaps d_m = x_P(u_m) − x_C(w_m) (linear in q, so its
 Hessian is the constant of physics.model's joint blocks); coordinate θ(q), the right-hand
-rotation of the child against the parent about x1 − x0 (§5.1), and its gradient; the torque
+rotation of the child against the parent about x1 − x0, and its gradient; the torque
 enters q̃ explicitly,
-by the seed's lever-arm force (§6a) or the #448 generalized couple (§6b).
+by libuipc's lever-arm force or its generalized couple (docs/physics.md#revolute-torque).
 """
 
 from types import SimpleNamespace
@@ -13,17 +13,18 @@ import warp as wp
 
 from affine_joint_sim.physics.codes import LEVER_ARM
 
-__all__ = ['build']
+__all__ = ['build', 'linear_pairs', 'nonlinear_residuals']
 
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the revolute joint for the types namespace ``t``."""
-    vec3, mat33, vec12, scalar = t.vec3, t.mat33, t.vec12, t.scalar
+    vec3, mat33, vec12, mat12, scalar = t.vec3, t.mat33, t.vec12, t.mat12, t.scalar
     zero, half = t.zero, t.half
     Model, Scratch = t.structs.Model, t.structs.Scratch
     affine, world_point, jacobian_transpose = t.affine, t.world_point, t.jacobian_transpose
     translation_part, affine_part = t.translation_part, t.affine_part
     direction_jacobian_transpose = t.direction_jacobian_transpose
+    atan2 = t.atan2
 
     @wp.func
     def gaps(model: Model, qp: vec12, qc: vec12, k: int):
@@ -36,7 +37,7 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def energy(model: Model, qp: vec12, qc: vec12, k: int):
-        """K/2 (|d0|² + |d1|²) (no dt², physics_spec §3.3)."""
+        """K/2 (|d0|² + |d1|²) (no dt²: docs/physics.md#physical-stiffness-of-joint-terms)."""
         d0, d1 = gaps(model, qp, qc, k)
         return half * model.joint_stiffness[k] * (wp.dot(d0, d0) + wp.dot(d1, d1))
 
@@ -58,8 +59,13 @@ def build(t) -> SimpleNamespace:
         return wp.max(wp.length(d0), wp.length(d1))
 
     @wp.func
-    def angle(model: Model, qp: vec12, qc: vec12, k: int):
-        """θ(q) ∈ (−π, π]: right-hand rotation of child vs parent about x1 − x0 (§5.1)."""
+    def state_blocks(model: Model, qp: vec12, qc: vec12, k: int):
+        """None: the energy is quadratic in q, its blocks are constants (zeros, 0)."""
+        return mat12(), mat12(), mat12(), int(0)
+
+    @wp.func
+    def coordinate(model: Model, qp: vec12, qc: vec12, k: int):
+        """θ(q) ∈ (−π, π]: right-hand rotation of child vs parent about x1 − x0."""
         ap = affine(qp)
         ac = affine(qc)
         n_p = ap @ model.joint_parent_normal[k]
@@ -68,10 +74,10 @@ def build(t) -> SimpleNamespace:
         b_c = ac @ model.joint_child_binormal[k]
         c = half * (wp.dot(n_p, n_c) + wp.dot(b_p, b_c))
         s = half * (wp.dot(b_p, n_c) - wp.dot(n_p, b_c))
-        return wp.atan2(s, c)
+        return atan2(s, c)
 
     @wp.func
-    def angle_gradients(model: Model, qp: vec12, qc: vec12, k: int):
+    def coordinate_gradients(model: Model, qp: vec12, qc: vec12, k: int):
         """(∇_P θ, ∇_C θ) of θ = atan2(s, c): (c ∇s − s ∇c) / (c² + s²)."""
         ap = affine(qp)
         ac = affine(qc)
@@ -98,7 +104,7 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def lever_arm_force(q: vec12, anchor0: vec3, anchor1: vec3, tau: scalar):
-        """Seed formula §6a: a force at the COM whose moment about the axis is τ ê [N]."""
+        """The lever-arm formula: a force at the COM whose moment about the axis is τ ê [N]."""
         a = affine(q)
         e = wp.normalize(a @ (anchor1 - anchor0))
         d = -(a @ anchor0)
@@ -110,9 +116,9 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def couple_acceleration(a: mat33, e: vec3, tau: scalar, s: vec3):
-        """#448 generalized force (τ/2)[ê]× A⁻ᵀ mapped by S⁻¹ to an affine acceleration.
+        """The generalized force (τ/2)[ê]× A⁻ᵀ mapped by S⁻¹ to an affine acceleration.
 
-        Returns (acceleration 12-vector, 1) or (zero, 0) when A is near-singular (§6c guard).
+        Returns (acceleration 12-vector, 1) or (zero, 0) when A is near-singular (the guard).
         """
         rows = wp.length(vec3(a[0, 0], a[0, 1], a[0, 2])) * wp.length(
             vec3(a[1, 0], a[1, 1], a[1, 2])) * wp.length(vec3(a[2, 0], a[2, 1], a[2, 2]))
@@ -126,8 +132,8 @@ def build(t) -> SimpleNamespace:
         return affine_part(acc), 1
 
     @wp.func
-    def apply_torque(model: Model, qp: vec12, qc: vec12, scratch: Scratch, env: int, k: int,
-                     tau: scalar, scale: scalar):
+    def apply_command(model: Model, qp: vec12, qc: vec12, scratch: Scratch, env: int, k: int,
+                      tau: scalar, scale: scalar):
         """Add scale·a_ext of torque τ [N·m] at the start-of-step state to q̃ of both bodies.
 
         Returns 1 if a near-singular body dropped the torque (generalized model)."""
@@ -159,7 +165,18 @@ def build(t) -> SimpleNamespace:
                 dropped = dropped | (1 - ok)
         return dropped
 
-    return SimpleNamespace(energy=energy, gradients=gradients, gap=gap, angle=angle,
-                           angle_gradients=angle_gradients,
-                           lever_arm_force=lever_arm_force,
-                           couple_acceleration=couple_acceleration, apply_torque=apply_torque)
+    return SimpleNamespace(energy=energy, gradients=gradients, state_blocks=state_blocks,
+                           gap=gap, coordinate=coordinate,
+                           coordinate_gradients=coordinate_gradients,
+                           apply_command=apply_command, lever_arm_force=lever_arm_force,
+                           couple_acceleration=couple_acceleration)
+
+
+def linear_pairs(point, direction) -> list:
+    """The (J_P, J_C) of its residuals, all linear in q: the two anchor gaps."""
+    return [point(0), point(1)]
+
+
+def nonlinear_residuals(point, direction, qp, qc) -> list:
+    """None: every residual is linear (``linear_pairs``)."""
+    return []

@@ -1,0 +1,93 @@
+"""The kernels' sin and atan2, and the CPU compile options that keep every kernel's rounding the
+same on every x86-64 machine (docs/physics.md#reproducibility).
+
+Warp compiles CPU kernels for the host's instruction set and calls the C library for
+transcendental functions. Both vary between machines: the C library picks its sin and atan2
+by CPU features, and LLVM fuses a product and a sum into one FMA (one rounding instead of two)
+wherever the host has FMA, in places that depend on how it vectorizes for that host. Here
+sin and atan2 are built from +, −, ×, ÷ and √ (the algorithms and coefficients of
+``affine_joint_sim.portable_math``), and ``KERNEL_OPTIONS`` turns FMA off while keeping the
+host's vector width: vector lanes round exactly like scalars, so only fusion changed bits.
+"""
+
+from types import SimpleNamespace
+
+import warp as wp
+
+from affine_joint_sim.portable_math import (ATAN_COEFFICIENTS, COS_COEFFICIENTS, HALF_PI,
+                                            SIN_COEFFICIENTS, TAN_PI_8, half_pi_parts)
+
+__all__ = ['build', 'kernel_options']
+
+# LLVM target features that would let the compiler fuse a·b + c (FMA3 and AMD's FMA4).
+_NO_FUSION = '-target-feature -fma -target-feature -fma4'
+
+
+def kernel_options() -> dict:
+    """Warp module options of every kernel module: Warp's CPU compiler flags (the global
+    setting, ``-march=native`` by default) without FMA."""
+    flags = wp.config.cpu_compiler_flags
+    flags = '-march=native' if flags is None else flags
+    return {'cpu_compiler_flags': f'{flags} {_NO_FUSION}'.strip()}
+
+
+def build(t) -> SimpleNamespace:
+    """sin, atan2 and the kernel module options for the types namespace ``t``."""
+    scalar, zero, one, four = t.scalar, t.zero, t.one, t.four
+    # π/2 in three parts whose products with the quadrant number are exact in this precision
+    p1, p2, p3 = (scalar(p) for p in half_pi_parts(33 if scalar is wp.float64 else 12))
+    half_pi, quarter_pi, pi = scalar(HALF_PI), scalar(0.5 * HALF_PI), scalar(2.0 * HALF_PI)
+    inv_half_pi = scalar(1.0 / HALF_PI)
+    tan_pi_8 = scalar(TAN_PI_8)
+    s3, s5, s7, s9, s11, s13, s15, s17 = (scalar(c) for c in SIN_COEFFICIENTS)
+    c2, c4, c6, c8, c10, c12, c14, c16, c18 = (scalar(c) for c in COS_COEFFICIENTS)
+    a3, a5, a7, a9, a11, a13, a15, a17 = (scalar(c) for c in ATAN_COEFFICIENTS)
+
+    @wp.func
+    def sin(x: scalar):
+        """sin x [x in rad; |x| < 1e6 in float64, < 6e3 in float32]."""
+        k = wp.round(x * inv_half_pi)
+        r = ((x - k * p1) - k * p2) - k * p3
+        z = r * r
+        s = r + r * (z * (s3 + z * (s5 + z * (s7 + z * (s9 + z * (s11 + z * (
+            s13 + z * (s15 + z * s17))))))))
+        c = one + z * (c2 + z * (c4 + z * (c6 + z * (c8 + z * (c10 + z * (c12 + z * (
+            c14 + z * (c16 + z * c18))))))))
+        quadrant = int(k) % 4
+        if quadrant < 0:
+            quadrant = quadrant + 4
+        out = s
+        if quadrant == 1:
+            out = c
+        elif quadrant == 2:
+            out = -s
+        elif quadrant == 3:
+            out = -c
+        return out
+
+    @wp.func
+    def atan2(y: scalar, x: scalar):
+        """The angle of (x, y) in (−π, π] [rad]; 0 for (0, 0)."""
+        ax = wp.abs(x)
+        ay = wp.abs(y)
+        angle = zero
+        if ax > zero or ay > zero:
+            t = wp.min(ax, ay) / wp.max(ax, ay)
+            base = zero
+            if t > tan_pi_8:
+                t = (t - one) / (t + one)
+                base = quarter_pi
+            for _ in range(2):     # tan(a/2) = tan a / (1 + √(1 + tan² a))
+                t = t / (one + wp.sqrt(one + t * t))
+            z = t * t
+            angle = base + four * (t + t * (z * (a3 + z * (a5 + z * (a7 + z * (a9 + z * (
+                a11 + z * (a13 + z * (a15 + z * a17)))))))))
+            if ay > ax:
+                angle = half_pi - angle
+            if x < zero:
+                angle = pi - angle
+            if y < zero:
+                angle = -angle
+        return angle
+
+    return SimpleNamespace(sin=sin, atan2=atan2, kernel_options=kernel_options())
