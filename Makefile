@@ -25,7 +25,7 @@ FIND_PY312 = for p in python3.12 $$(ls -d $$HOME/.pyenv/versions/3.12.*/bin/pyth
 # so every tool that touches the install is pinned.
 define install_project
 	$(1) -m pip install -q $(2) setuptools
-	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test,bench]'
+	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test]'
 endef
 
 .PHONY: venv run lint test bench bags replay gallery gpu-prep lock clean
@@ -35,7 +35,7 @@ venv: $(STAMP)
 $(STAMP): setup.py $(CONSTRAINTS)
 	@test -x $(PY) || { py=$$($(FIND_PY312)) && echo "Creating $(VENV) with $$py" \
 	  && $$py -m venv $(VENV); }
-	@echo 'Installing affine_joint_sim[test,bench] into $(VENV) under $(CONSTRAINTS)'
+	@echo 'Installing affine_joint_sim[test] into $(VENV) under $(CONSTRAINTS)'
 	$(call install_project,$(PY),-c $(CONSTRAINTS))
 	@touch $@
 

@@ -36,11 +36,11 @@ setup(
         'pyyaml',
         'pydantic>=2',
         'yourdfpy>=0.0.56,<0.1',    # URDF robots (README.md#robots-from-urdf); meshes never loaded
+        'matplotlib',               # `render` and the plots of `make bench`
     ],
     extras_require={
         'test': ['pytest', 'mcap', 'mcap-ros2-support',   # bags as Foxglove reads them
                  'ruff'],                                  # the linter `make test` runs first
-        'bench': ['matplotlib'],    # plots of `make bench`
         'compare': ['mujoco'],      # MuJoCo as a reference in `make bench` (optional)
         'reference': ['pin>=3,<5'],   # Pinocchio checks the URDF robots' reference (optional)
         'cluster': ['ray>=2.40,<3'],  # replay/sweep on a Ray cluster (optional)

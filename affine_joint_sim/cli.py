@@ -9,6 +9,7 @@ Modules behind a subcommand are imported only when it runs, so ``--help`` is qui
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from affine_joint_sim.resources import packaged_scenes
@@ -48,6 +49,17 @@ def _positive(text: str) -> float:
         return value
     except ValueError:
         raise argparse.ArgumentTypeError(f'expected a finite number > 0, got {text!r}') from None
+
+
+def _pixels(text: str) -> int:
+    try:
+        value = int(text)
+        if not 16 <= value <= 8192:
+            raise ValueError
+        return value
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected a whole number of pixels in 16..8192, got '
+                                         f'{text!r}') from None
 
 
 def _on_off(text: str) -> bool:
@@ -106,9 +118,7 @@ def _replay(args, ros_args) -> int:
             print('affine-joint-sim replay: error: --out and --publish take one bag',
                   file=sys.stderr)
             return 2
-        if args.workers is not None and args.workers < 1:
-            print(f'affine-joint-sim replay: error: --workers {args.workers}: must be >= 1',
-                  file=sys.stderr)
+        if _too_few_workers('replay', args):
             return 2
         from affine_joint_sim.fleet import cli as fleet
         return fleet.main(args)
@@ -117,7 +127,18 @@ def _replay(args, ros_args) -> int:
     return replay.main(args)
 
 
+def _too_few_workers(command: str, args) -> bool:
+    """--workers below 1, said in one line."""
+    if args.workers is not None and args.workers < 1:
+        print(f'affine-joint-sim {command}: error: --workers {args.workers}: must be >= 1',
+              file=sys.stderr)
+        return True
+    return False
+
+
 def _sweep(args, ros_args) -> int:
+    if _too_few_workers('sweep', args):
+        return 2
     from affine_joint_sim.fleet import sweep
     return sweep.main(args)
 
@@ -278,8 +299,10 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument('--out', required=True, help='output file: .gif, .mp4 or .png')
     render.add_argument('--fps', type=_positive, default=15.0, help='frames per second of '
                         'bag time (default 15)')
-    render.add_argument('--width', type=int, default=960, help='pixels (default 960)')
-    render.add_argument('--height', type=int, default=540, help='pixels (default 540)')
+    render.add_argument('--width', type=_pixels, default=960, help='pixels, 16..8192 '
+                        '(default 960)')
+    render.add_argument('--height', type=_pixels, default=540, help='pixels, 16..8192 '
+                        '(default 540)')
     render.add_argument('--view', default='-60,20', help='camera azimuth,elevation in degrees '
                         '(default -60,20)')
     render.add_argument('--from', dest='start', type=_non_negative, default=None,
@@ -308,8 +331,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _warning_line(message, category, filename, lineno, line=None) -> str:
+    """A warning as the command line shows it: its category and message, without the file,
+    line and source of the project's code that raised it."""
+    return f'{category.__name__}: {message}\n'
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    warnings.formatwarning = _warning_line
     ros_args = []
     if ROS_ARGS in argv:
         at = argv.index(ROS_ARGS)

@@ -3,7 +3,15 @@
 import sys
 import time
 
-__all__ = ['Progress']
+__all__ = ['Progress', 'print_above']
+
+
+def print_above(line: str) -> None:
+    """``line`` on stderr, on a line of its own: a progress bar being drawn on the current line
+    is cleared first (on a terminal) or ended there (elsewhere); its next update draws it
+    again below."""
+    sys.stderr.write(('\r\x1b[K' if sys.stderr.isatty() else '\n') + line + '\n')
+    sys.stderr.flush()
 
 
 class Progress:

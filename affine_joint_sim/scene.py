@@ -278,6 +278,11 @@ class Joint(StrictModel):
             extra = sorted(given & {'torque_model', 'angle_mode'})
             if extra:
                 raise ValueError(f'{", ".join(extra)} applies to revolute joints only')
+        limit = self.limit
+        if limit is not None and not limit.lower <= self.initial_position <= limit.upper:
+            # a limit entered that deep rejects every step: the joint would never move
+            raise ValueError(f'initial_position {self.initial_position:g} is outside the limit '
+                             f'[{limit.lower:g}, {limit.upper:g}]')
         return self
 
 
@@ -311,6 +316,20 @@ class SceneSettings(StrictModel):
     solver: Solver = Solver()
 
 
+def _looks_like_xml(path: Path) -> bool:
+    """Whether the file starts, after a byte-order mark and blank space, with ``<`` (an XML
+    declaration, a comment or <robot>): YAML never does. False when it cannot be read (the
+    YAML reader then says why)."""
+    try:
+        with path.open('rb') as file:
+            head = file.read(4096)
+    except OSError:
+        return False
+    for bom in (b'\xef\xbb\xbf', b'\xff\xfe', b'\xfe\xff'):
+        head = head.removeprefix(bom)
+    return head.replace(b'\x00', b'').lstrip().startswith(b'<')
+
+
 class Scene(SceneSettings):
     """A validated scene. Build with ``Scene.from_yaml(path)`` or ``Scene.from_dict(d)``."""
 
@@ -328,8 +347,10 @@ class Scene(SceneSettings):
 
     @classmethod
     def load(cls, path) -> 'Scene':
-        """A scene file: a URDF (``.urdf``) with default settings, or a scene YAML."""
-        if Path(path).suffix.lower() == '.urdf':
+        """A scene file, told by its content whatever its name (``.urdf``, ``.xml``,
+        ``.xacro``, none): XML is a URDF, read with default settings; anything else a scene
+        YAML."""
+        if _looks_like_xml(Path(path)):
             return cls.from_urdf(path)
         return cls.from_yaml(path)
 

@@ -35,10 +35,10 @@ _PROBLEMS = {      # by physics.fields.PROBLEM_NAMES
                      '(stats["converged"] is False; residual {residual:.3g} m/s); the step '
                      'keeps its last iterate',
     'non_finite': 'the step produced NaN/Inf: it was rejected and the last good state kept '
-                  '(stats["step_rejected"]); reduce the torque or dt',
+                  '(stats["step_rejected"]); {advice}',
     'angle_aliased': 'a joint turned more than 0.9π in one step, so its angle would alias: the '
                      'step was rejected and the last good state kept (stats["step_rejected"]); '
-                     'reduce dt',
+                     '{advice}',
     'torque_dropped': 'a body is nearly singular (|det A| < 1e-6 ∏|a_r|): its joint torque '
                       'was dropped this step',
     'line_search_failures': f'the line search found no decrease in {HALVINGS} halvings',
@@ -117,6 +117,13 @@ class Stepper:
         'prismatic' (distances [m], forces [N]) or 'fixed' (no coordinate, no command;
         reported as 0)."""
         return [j.type for j in self.scene.joints]
+
+    @property
+    def problem_totals(self) -> dict[str, int]:
+        """Environment-steps that had each kind of problem since the Stepper was made (a reset
+        does not clear them): not_converged, non_finite and angle_aliased (both rejected, the
+        last good state kept), torque_dropped, line_search_failures."""
+        return dict(zip(PROBLEM_COLUMNS[1:], (int(n) for n in self._problem_totals[1:])))
 
     @property
     def step_effort_bounds(self) -> np.ndarray:
@@ -203,6 +210,7 @@ class Stepper:
         self._downloads.stale()
         self._steps += 1
         if self._problems[0] != 0:
+            self._problem_totals += self._problems
             self._check()
 
     def reset(self) -> None:
@@ -385,6 +393,7 @@ class Stepper:
                                           for group, names in _OUTPUT_GROUPS.items()}, separate)
         self._problems_host = host_copy(state.problem_counts, separate)
         self._problems = self._problems_host.numpy()
+        self._problem_totals = np.zeros(len(PROBLEM_COLUMNS), dtype=np.int64)
         self._warned = set()
 
     def _read(self, name: str) -> np.ndarray:
@@ -416,8 +425,40 @@ class Stepper:
             self._warned.add(name)
             residual = (float(self._read('stats_float')[:, 0].max())
                         if name == 'not_converged' else 0.0)
+            advice = (self._rejection_advice() if name in ('non_finite', 'angle_aliased')
+                      else '')
             self._say(f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
-                max_iter=self.scene.solver.newton_max_iter, residual=residual), stacklevel=4)
+                max_iter=self.scene.solver.newton_max_iter, residual=residual, advice=advice),
+                stacklevel=4)
+
+    def _rejection_advice(self) -> str:
+        """What can end rejected steps, from the state: joints beyond their limits (whose push
+        grows as 1/dt², so a smaller dt does not help), commands above what a step of dt can
+        represent, else a smaller dt or smaller commands."""
+        h = self._host
+        x = self._read('joint_coordinate')
+        beyond = np.maximum(h.joint_limit_lower - x, x - h.joint_limit_upper)
+        beyond = np.where(h.joint_limit_strength > 0, beyond, 0.0).max(axis=0)
+        names = [j.name for j in self.scene.joints]
+        deep = [f'{names[k]} ({beyond[k]:.3g} beyond)' for k in np.flatnonzero(beyond > 1e-3)]
+        if deep:
+            return ('joints beyond their limits: ' + ', '.join(deep) + '; a limit pushes back '
+                    'harder the smaller dt is, so start joints inside their limits '
+                    '(initial_positions) or lower the limit strength')
+        bounds = largest_step_efforts(h)
+        loud = np.abs(np.where(self._enabled != 0, self._torque, 0.0)).max(axis=0) > bounds
+        if loud.any():
+            return ('commands above what a step of dt can represent (step_effort_bounds): '
+                    + ', '.join(names[k] for k in np.flatnonzero(loud))
+                    + '; lower them (effort_limit clamps them) or dt')
+        far = np.where((self._drive_enabled != 0) & (h.joint_drive_stiffness > 0),
+                       np.abs(self._target - x), 0.0).max(axis=0)
+        if (far > 0.5).any():
+            return ('drives far from their targets: ' + ', '.join(
+                f'{names[k]} ({far[k]:.3g} away)' for k in np.flatnonzero(far > 0.5))
+                + '; a stiff drive pulls its joint most of the way in one step: move the '
+                'target in smaller steps or lower the drive\'s strength_ratio')
+        return 'reduce dt or the torques'
 
     def _say(self, message: str, stacklevel: int) -> None:
         """Report a problem: to ``on_problem``, else as a SimulationWarning attributed to the

@@ -160,8 +160,7 @@ def test_bag_arguments_expand_to_bags(fleet, tmp_path):
     bags, problems = expand_bags([str(fleet), str(fleet / 'made1'), f'{fleet}/made[12]',
                                   str(tmp_path / 'empty'), str(tmp_path / 'gone*')])
     assert len(bags) == len(SAMPLES) + 8 and len(set(bags)) == len(bags)
-    assert problems == [(str(tmp_path / 'empty'), 'not a bag (no metadata.yaml, .mcap or '
-                         '.db3), and no bags inside'),
+    assert problems == [(str(tmp_path / 'empty'), 'an empty directory: no bags in it'),
                         (str(tmp_path / 'gone*'), 'no such file or directory')]
 
 
@@ -199,6 +198,16 @@ def test_a_parallel_sweep_writes_the_rows_of_a_serial_one(tmp_path, executor):
     assert rows == serial                    # every figure but wall time, bit for bit
     assert all(float(r['error_rad']) < 0.05 for r in rows)
     assert (tmp_path / 'parallel' / 'sweep_double_pendulum[shoulder=1].png').exists()
+    assert 'Warp' not in done.stdout + done.stderr     # no banner, no CUDA driver notice
+
+
+def test_a_sweep_says_its_size_and_what_it_is_doing(tmp_path):
+    _, done = sweep_rows(tmp_path, 'said', '--workers', '2')
+    said = done.stderr.replace('\r', '\n')
+    assert 'sweep: 8 jobs (2 cases × 4 settings) on 2 worker processes' in said
+    assert 'sweep: computing the rigid-body reference of 2 cases' in said
+    assert said.index('reference of 2 cases') < said.index('] 0/8 ') < said.index('] 8/8 ')
+    assert 'warning' not in said                       # 8 jobs are no large sweep
 
 
 def test_a_bad_sweep_spec_is_refused(tmp_path):
@@ -210,6 +219,68 @@ def test_a_bad_sweep_spec_is_refused(tmp_path):
         spec.write_text(text)
         done = cli('sweep', spec, '--out', tmp_path / 'out')
         assert done.returncode == 2 and words in done.stderr, done.stderr
+
+
+def test_an_unknown_joint_or_device_is_refused_in_one_line_before_any_job(tmp_path):
+    spec = tmp_path / 'spec.yaml'
+    for text, words in (
+            ('scenes: [{scene: double_pendulum, torques: {elbw: 1.0}}]\n',
+             "scenes[0].torques: joint 'elbw' is not in double_pendulum (joints: shoulder, "
+             "elbow)"),
+            ('scenes: [{scene: arm, torques: [{yaw: 0.1}, {yaw: 0.3, hand: 1}]}]\n',
+             "scenes[0].torques[1]: joint 'hand' is not in arm (joints: yaw, shoulder, "
+             'elbow, wrist_pitch, wrist_yaw, wrist_roll)'),
+            ('cases: [pendulum]\ndevice: [cpu, cuda:99]\n', "device[1]: 'cuda:99' is not a "
+             'device of this machine (it has: cpu'),
+            ('cases: [pendulum]\ndevice: [gpu]\n', "device[0]: 'gpu' is not a device of this "
+             'machine (it has: cpu')):
+        spec.write_text(text)
+        done = cli('sweep', spec, '--out', tmp_path / 'out')
+        assert done.returncode == 2 and words in done.stderr, done.stderr
+        assert len(done.stderr.splitlines()) == 1, done.stderr
+        assert not (tmp_path / 'out').exists()          # no job ran
+
+
+def test_cuda_on_a_machine_without_a_gpu_is_refused_in_one_line(tmp_path):
+    import warp as wp
+
+    from affine_joint_sim.quiet_warp import quiet_warp
+
+    quiet_warp()
+    if wp.get_cuda_device_count():
+        pytest.skip('this machine has a CUDA device')
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text('cases: [pendulum]\ndevice: [cuda]\n')
+    done = cli('sweep', spec, '--out', tmp_path / 'out', '--workers', 1)
+    assert done.returncode == 2 and done.stderr == (
+        f"affine-joint-sim sweep: error: {spec}: device[0]: 'cuda' is not a device of this "
+        'machine (it has: cpu)\n'), done.stderr
+
+
+def test_sweep_refuses_fewer_than_one_worker(tmp_path):
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text('cases: [pendulum]\ndt: [0.01]\nintegrator: [bdf2]\n')
+    done = cli('sweep', spec, '--out', tmp_path / 'out', '--workers', 0)
+    assert done.returncode == 2 and done.stderr == (
+        'affine-joint-sim sweep: error: --workers 0: must be >= 1\n'), done.stderr
+    assert not (tmp_path / 'out').exists()
+
+
+def test_worker_warnings_are_lines_of_their_own_naming_the_bag(fleet, tmp_path):
+    # a scene whose solver cannot converge in one iteration: every replay warns once
+    scene = (REPO / 'msg_configs' / 'scenes' / 'pendulum.yaml').read_text()
+    stiff = tmp_path / 'one_iteration.yaml'
+    stiff.write_text(scene.replace('newton_max_iter: 32', 'newton_max_iter: 1').replace(
+        'newton_tol: 1.0e-4', 'newton_tol: 1.0e-14'))
+    bags = [fleet / 'torque_step', fleet / 'made1']
+    done = cli('replay', *bags, '--scene', stiff, '--workers', 2)
+    assert done.returncode == 1, done.stdout + done.stderr
+    # what each line shows last (a progress bar redraws its line after a carriage return)
+    lines = [line.rsplit('\r', 1)[-1].replace('\x1b[K', '') for line in done.stderr.split('\n')]
+    for bag in bags:
+        assert any(line.startswith(f'warning: {bag}: SimulationWarning: t = 0.01 s: Newton '
+                                   'did not converge') for line in lines), done.stderr
+    assert 'Warp' not in done.stderr and 'loop.py' not in done.stderr, done.stderr
 
 
 def test_a_ray_worker_killed_mid_run_still_yields_a_complete_report(fleet, tmp_path):
@@ -245,3 +316,18 @@ def test_command_profiles_run_as_environments_of_one_batched_stepper(tmp_path):
         for column in ('error_rad', 'newton_iterations', 'joint_gap_m', 'energy_drift_j',
                        'converged_pct', 'rejected_steps'):
             assert batched[name][column] == alone[column], column
+
+
+def test_a_directory_of_bags_names_a_bag_without_metadata_instead_of_skipping_it(tmp_path):
+    """Before, `replay DIR` skipped such a bag (a recording killed before its first split was
+    listed) without a word."""
+    from shutil import copytree
+
+    copytree(REPO / 'bags' / 'demo_pd', tmp_path / 'good')
+    (tmp_path / 'killed').mkdir()
+    (tmp_path / 'killed' / 'killed_0.mcap').write_bytes(b'')   # a split named as its bag
+    bags, problems = expand_bags([str(tmp_path)])
+    assert bags == [tmp_path / 'good']
+    assert problems == [(str(tmp_path / 'killed'),
+                         'split files but no metadata.yaml (a recording killed before it listed '
+                         'its first split?): not a bag rosbags can read')]

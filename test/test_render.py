@@ -1,6 +1,8 @@
 """``affine-joint-sim render``: GIFs and PNGs of real recorded bags, drawn from their
 body_poses or re-simulated when a bag has none; bad input gets one line and exit 2."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -75,8 +77,66 @@ def test_bad_input_is_one_line_and_exit_2(bags, tmp_path):
             ((bags['views'], '--out', tmp_path / 'x.avi'), 'must end in .gif, .mp4 or .png'),
             ((bags['views'], '--out', tmp_path / 'no' / 'x.gif'), 'no such directory'),
             ((bags['views'], '--out', tmp_path / 'x.gif', '--from', 2), '--from 2 and --to'),
-            ((bags['views'], '--out', tmp_path / 'x.gif', '--view', 'up'), '--view')):
+            ((bags['views'], '--out', tmp_path / 'x.gif', '--view', 'up'), '--view'),
+            # before: a .png past the end was drawn at the end silently
+            ((bags['views'], '--out', tmp_path / 'x.png', '--from', 2),
+             "--from 2 must be within the bag's time span [0, 0.5] s")):
         done = cli('render', *args)
         assert done.returncode == 2, done.stdout + done.stderr
         lines = [line for line in done.stderr.splitlines() if 'Warp' not in line]
         assert len(lines) == 1 and words in lines[0], done.stderr
+    # before: matplotlib's errors; now argparse's usage and its one error line
+    for flag, value in (('--width', 0), ('--height', -5)):
+        done = cli('render', bags['views'], '--out', tmp_path / 'x.gif', flag, value)
+        assert done.returncode == 2 and 'Traceback' not in done.stderr, done.stderr
+        assert done.stderr.splitlines()[-1].endswith(
+            f"argument {flag}: expected a whole number of pixels in 16..8192, got '{value}'")
+
+
+def test_a_robot_that_falls_far_stays_in_frame(tmp_path):
+    """A floating pendulum falls 20 m in 2 s: before, the view held the whole fall and the
+    robot shrank to a dot; now the view follows it at its own size, as a short run shows it."""
+    import yaml
+
+    scene = yaml.safe_load((Path(__file__).parents[1] / 'msg_configs' / 'scenes' /
+                            'pendulum.yaml').read_text())
+    scene['bodies'][0]['fixed'] = False
+    (tmp_path / 'falling.yaml').write_text(yaml.safe_dump(scene))
+
+    def robot_pixels(duration):
+        bag, out = tmp_path / f'bag_{duration}', tmp_path / f'end_{duration}.png'
+        done = cli('run', '--scene', tmp_path / 'falling.yaml', '--mode', 'fast', '--duration',
+                   duration, '--record', bag)
+        assert done.returncode == 0, done.stderr
+        done = cli('render', bag, '--out', out, '--from', duration, '--width', 320,
+                   '--height', 200)
+        assert done.returncode == 0, done.stderr
+        with Image.open(out) as png:
+            view = np.asarray(png.convert('RGB'), dtype=int)[:, :190]
+        return int((view.max(axis=2) - view.min(axis=2) > 60).sum())   # coloured: the robot
+
+    assert robot_pixels(2.0) > 0.5 * robot_pixels(0.1) > 100   # before: 5 against 736
+
+
+def test_a_large_mesh_is_drawn_decimated_keeping_its_outline():
+    """Before, a mesh under 4,000 faces was drawn face by face (Solo12: 9 s a frame) and one
+    over it as a box."""
+    import trimesh
+
+    from affine_joint_sim.viz.render import MESH_FACES, decimated
+
+    sphere = trimesh.creation.uv_sphere(radius=0.05, count=[30, 30])
+    triangles = decimated(np.asarray(sphere.vertices), np.asarray(sphere.faces), MESH_FACES)
+    assert len(sphere.faces) > 3000 and 20 <= len(triangles) <= MESH_FACES
+    corners = triangles.reshape(-1, 3)
+    np.testing.assert_allclose(corners.max(axis=0), sphere.vertices.max(axis=0), rtol=0.15)
+    np.testing.assert_allclose(corners.min(axis=0), sphere.vertices.min(axis=0), rtol=0.15)
+
+
+def test_a_window_is_read_alone_from_a_bag_with_poses():
+    """Before, --from 2995 --to 3000 on a 3,000 s bag decoded all of it (105 s, 1.4 GB)."""
+    bag = Path(__file__).parents[1] / 'bags' / 'torque_step'
+    whole, window = load_track(bag), load_track(bag, 2.0, 2.4)
+    assert whole.state_times.min() == 0.0 and whole.state_times.max() >= 2.49
+    assert window.state_times.min() >= 1.0 - 1e-9 and window.state_times.max() <= 2.4 + 1e-9
+    assert window.pose_times.min() >= 1.0 - 1e-9 and window.span == whole.span

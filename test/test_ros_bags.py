@@ -352,3 +352,22 @@ def test_sigterm_ends_the_run_cleanly_and_finalises_the_bag(sim, ros_node, wait_
     steps = int(output.split(' steps,')[0].split()[-1])
     assert len(recorded['/joint_states']) == steps + 1      # the initial state and every step
     assert not list(bag.glob('.split_*'))                     # no scratch left behind
+
+
+def test_paths_that_are_no_bag_say_what_they_are(tmp_path):
+    """Before: an empty directory and a bag directory without metadata.yaml gave rosbags'
+    own words, and one split of a bag 'no joint_states' without naming the bag."""
+    empty = tmp_path / 'empty'
+    empty.mkdir()
+    unlisted = tmp_path / 'unlisted'
+    unlisted.mkdir()
+    (unlisted / 'unlisted_0.mcap').write_bytes(
+        (REPO / 'bags' / 'torque_step' / 'torque_step_0.mcap').read_bytes())
+    split = REPO / 'bags' / 'torque_step' / 'torque_step_1.mcap'
+    for path, words in ((empty, 'an empty directory: no bag in it'),
+                        (unlisted, 'split files but no metadata.yaml'),
+                        (split, 'one of the 4 split files of the bag '
+                                f'{split.parent}: replay the bag directory')):
+        replayed = cli('replay', path)
+        assert replayed.returncode == 2, replayed.stdout + replayed.stderr
+        assert words in replayed.stderr and 'Traceback' not in replayed.stderr, replayed.stderr

@@ -51,7 +51,10 @@ def test_joint_commands_apply_the_valid_entries_and_name_the_bad_ones():
     assert "unknown joint 'zz' (joints: a, b)" in problems[0] and 'not finite' in problems[1]
     buffer.apply(sim, 0.0)
     assert sim.torque == {'b': 1.0}
-    assert buffer.joint_commands(['a'], [1.0, 2.0]) == ['1 names but 2 efforts: message dropped']
+    message = Msg(name=['a'], effort=[1.0, 2.0])
+    assert buffer.malformed('joint_commands', message) == '1 names but 2 efforts: message dropped'
+    assert buffer.take('joint_commands', None, message) == [buffer.malformed('joint_commands',
+                                                                             message)]
 
 
 def test_timeout_drops_a_held_torque_once_and_a_new_command_rearms_it():
@@ -86,7 +89,7 @@ def test_take_dispatches_by_topic_and_names_unknown_joints():
     buffer, sim = CommandBuffer(['a', 'b']), FakeStepper()
     assert buffer.take('joint_torque', 'a', Msg(data=1.0)) == []
     assert buffer.take('joint_enable', 'b', Msg(data=False)) == []
-    assert buffer.take('joint_commands', None, Msg(name=['b'], effort=[2.0])) == []
+    assert 'is disabled' in buffer.take('joint_commands', None, Msg(name=['b'], effort=[2.0]))[0]
     assert 'unknown joint' in buffer.take('joint_enable', 'zz', Msg(data=True))[0]
     assert 'not finite' in buffer.take('joint_torque', 'a', Msg(data=math.nan))[0]
     buffer.apply(sim, 0.0)
@@ -107,19 +110,41 @@ def test_effort_and_position_arrays_follow_command_joints():
 def test_arrays_of_the_wrong_length_or_non_finite_entries_are_dropped():
     buffer = CommandBuffer(['a', 'b'], drive_joints=['a', 'b'])
     sim = FakeStepper()
-    assert buffer.effort_array([1.0]) == [
+    short = Msg(data=[1.0])
+    assert buffer.take('effort_commands', None, short) == [
         '1 efforts but command_joints has 2 (a, b): message dropped']
+    assert buffer.malformed('position_commands', short) == (
+        '1 positions but command_joints has 2 (a, b): message dropped')
+    assert buffer.malformed('effort_commands', Msg(data=[1.0, 2.0])) is None
     assert 'not finite' in buffer.position_array([math.nan, 0.2])[0]
     buffer.apply(sim, 0.0)
     assert sim.torque == {} and sim.target == {'b': 0.2}
 
 
-def test_commands_beyond_what_a_step_can_represent_are_dropped():
+def test_commands_beyond_what_a_step_can_represent_are_clamped_to_it():
+    """As an effort limit clamps (ros2_control, Gazebo); before, the command was dropped and
+    the previous torque kept acting."""
     buffer, sim = CommandBuffer(['a'], effort_bounds=[100.0]), FakeStepper()
     assert 'beyond what one step can represent (|value| <= 100' in buffer.torque('a', 1e308)
-    assert buffer.torque('a', -100.0) is None
+    assert 'clamped to it' in buffer.torque('a', -1e3)
     buffer.apply(sim, 0.0)
     assert sim.torque == {'a': -100.0}
+    assert buffer.torque('a', -100.0) is None
+
+
+def test_a_torque_for_a_disabled_joint_is_said_once_per_disabling():
+    """Before, torques sent after `enable JOINT off` were taken without a word and did
+    nothing (a PD controller ended 2 rad off its target)."""
+    buffer, sim = CommandBuffer(['a', 'b'], enabled=[False, True]), FakeStepper()
+    assert 'is disabled' in buffer.torque('a', 1.0)
+    assert buffer.torque('a', 2.0) is None and buffer.torque('b', 1.0) is None
+    buffer.enable('a', True)
+    assert buffer.torque('a', 3.0) is None               # enabled in the same step: no notice
+    buffer.apply(sim, 0.0)
+    buffer.enable('a', False)
+    buffer.apply(sim, 0.01)
+    assert 'is disabled' in buffer.torque('a', 1.0)      # said again after a new disabling
+    assert sim.enabled == {'a': False} and sim.torque == {'a': 3.0, 'b': 1.0}
 
 
 def test_a_joint_with_an_effort_limit_clamps_instead_of_dropping():

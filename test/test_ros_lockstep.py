@@ -157,3 +157,50 @@ def test_answers_beyond_lockstep_publishers_are_counted_and_said(tmp_path, ros_n
     output = node.stop()
     assert '0 steps' in output and 'commands taken: 2' in output, output
     assert '1 lockstep answers beyond lockstep_publishers' in output, output
+
+
+def test_a_malformed_answer_is_dropped_and_releases_no_step(tmp_path, ros_node, wait_for):
+    """Arrays of the wrong length command nothing, so they answer nothing: before, each was
+    counted as taken and released a lockstep step."""
+    from std_msgs.msg import Float64MultiArray
+
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep')
+    states = Inbox(ros_node, 'joint_states')
+    efforts = publisher(ros_node, wait_for, 'effort_commands')
+    for _ in range(20):
+        efforts.publish(Float64MultiArray(data=[0.1, 0.2, 0.3]))     # the pendulum has 1 joint
+    efforts.publish(Float64MultiArray(data=[0.1]))     # one good answer, after them (reliable)
+    assert wait_for(lambda: any(stamp_ns(m) == DT_NS for m in states.messages), timeout=30.0)
+    output = node.stop()
+    assert '\n1 steps, ' in output, output
+    assert 'commands taken: 1; dropped: 20 malformed' in output, output
+    assert '3 efforts but command_joints has 1 (shoulder): message dropped (1 so far)' in output
+
+
+def test_a_best_effort_controller_is_named_as_never_matched(tmp_path, ros_node, wait_for):
+    """Before, a QoS-incompatible controller was reported '1 publisher(s) matched' while the
+    node hung at t = 0."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep')
+    best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    ros_node.create_publisher(JointState, '/joint_commands', best_effort)
+    assert wait_for(lambda: node.said('QoS-incompatible publishers, never matched: '
+                                      f'{ros_node.get_name()} on /joint_commands (best_effort)'),
+                    timeout=30.0)
+    output = node.stop()
+    waiting = [line for line in output.splitlines() if 'never matched' in line][0]
+    assert 'no publisher is matched' in waiting and 'published reliable' in waiting, waiting
+
+
+def test_fewer_controllers_than_lockstep_publishers_are_warned_about(
+        tmp_path, ros_node, wait_for, controllers):
+    """Two answers expected, one controller: each step went on only at the 0.2 s republish
+    (5 steps/s) and nothing said why."""
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep',
+                      '--ros-args', '-p', 'lockstep_publishers:=2')
+    controllers('shoulder', 0.5, '--name', 'lonely_controller')
+    assert wait_for(lambda: node.said('lockstep_publishers is 2 but 1 publisher(s) are matched'),
+                    timeout=30.0)
+    assert 'lonely_controller' in node.stop()

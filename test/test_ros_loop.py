@@ -67,7 +67,7 @@ class FailingBag:
     """A BagRecorder stand-in whose writes fail like a full disk after ``room`` of them."""
 
     def __init__(self, room):
-        self.room, self.written, self.abandoned = room, [], False
+        self.room, self.written, self.abandoned, self.closed = room, [], False, False
         self.path, self.last_split, self.bytes_written = 'bag', 'bag_0.mcap', 1234
 
     def write(self, topic, t_ns, raw):
@@ -78,13 +78,16 @@ class FailingBag:
     def abandon(self):
         self.abandoned = True
 
+    def close(self):
+        self.closed = True
+
 
 def test_recording_records_commands_at_their_step_and_stops_on_a_failed_write():
     from affine_joint_sim.ros.recording import RunRecording
 
     said = []
     bag = FailingBag(room=3)
-    recording = RunRecording(bag, said.append)
+    recording = RunRecording(bag, said.append, said.append)
     recording.take('/cmd', b'a')
     recording.take('/cmd', b'b')
     recording.record_taken(5)
@@ -97,4 +100,4 @@ def test_recording_records_commands_at_their_step_and_stops_on_a_failed_write():
     recording.take('/cmd', b'c')
     recording.record_taken(7)
     recording.close()                                     # nothing more, nothing raised
-    assert len(said) == 1
+    assert len(said) == 1 and bag.closed                  # its writer thread was waited for

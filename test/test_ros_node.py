@@ -121,7 +121,7 @@ def test_position_commands_drive_the_joints_that_have_a_drive(sim, ros_node, wai
     assert "joint 'elbow' has no drive" in output and output.count('has no drive') == 1
 
 
-def test_a_non_physical_torque_is_dropped_and_the_joint_keeps_moving(sim, ros_node, wait_for):
+def test_a_non_physical_torque_is_clamped_and_the_joint_keeps_moving(sim, ros_node, wait_for):
     child = sim('--mode', 'realtime', '--real-time-factor', '2.0')
     states = Inbox(ros_node, 'joint_states')
     pub = publisher(ros_node, wait_for, 'joint_torque', 'shoulder')
@@ -427,3 +427,87 @@ def test_realtime_warns_when_it_cannot_keep_up_and_reports_the_factor():
     assert float(warning.split()[0]) < 500
     factor = float(done.stdout.split('real-time factor ')[1].split()[0])
     assert 1 < factor < 500
+
+
+def test_the_summary_counts_rejected_steps_and_the_warning_says_what_to_change(tmp_path):
+    """A stiff drive 100 rad from its target: steps do not converge or are rejected (a joint
+    would turn over 0.9π). Before, the summary said nothing of them and the warning only
+    'reduce dt'."""
+    data = yaml.safe_load(SCENES.joinpath('pendulum.yaml').read_text())
+    data['joints'][0]['drive'] = {'target': 100.0, 'strength_ratio': 1.0e9}
+    scene = tmp_path / 'wild.yaml'
+    scene.write_text(yaml.safe_dump(data))
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--scene', scene,
+                           '--mode', 'fast', '--duration', '0.1'],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    line = done.stdout.split('steps not converged: ')[1].split('\n')[0]
+    unconverged = int(line.split(';')[0])
+    rejected = int(line.split('steps rejected: ')[1].split()[0])
+    assert unconverged > 0 and rejected > 0, done.stdout
+    assert 'drives far from their targets: shoulder' in done.stderr, done.stderr
+
+
+def test_node_params_yaml_lists_every_parameter():
+    """Before, it lacked viz_rate and frame_id."""
+    from affine_joint_sim.ros.parameters import PARAMETERS
+
+    listed = yaml.safe_load((REPO / 'msg_configs' / 'node_params.yaml').read_text())
+    assert set(listed['affine_joint_sim']['ros__parameters']) == set(PARAMETERS)
+
+
+def test_an_unknown_parameter_in_a_params_file_is_refused_naming_it(tmp_path):
+    """Before, a typo in a params file did nothing, silently."""
+    params = tmp_path / 'params.yaml'
+    params.write_text('affine_joint_sim:\n  ros__parameters:\n    viz_rat: 5.0\n')
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--duration',
+                           '0.05', '--mode', 'fast', '--ros-args', '--params-file', str(params)],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2, done.stdout
+    assert "unknown parameter 'viz_rat' (from -p or --params-file; valid: scene," in done.stderr
+    assert 'Traceback' not in done.stderr
+
+
+def test_an_integer_set_at_run_time_keeps_a_float_parameter_a_float(sim, ros_node, wait_for):
+    """Before, `ros2 param set /affine_joint_sim real_time_factor 2` made it an integer."""
+    from rcl_interfaces.msg import Parameter as ParameterMsg
+    from rcl_interfaces.msg import ParameterType, ParameterValue
+    from rcl_interfaces.srv import GetParameters, SetParameters
+
+    child = sim('--mode', 'realtime')
+    two = ParameterMsg(name='real_time_factor',
+                       value=ParameterValue(type=ParameterType.PARAMETER_INTEGER,
+                                            integer_value=2))
+    done = call(ros_node, wait_for, SetParameters, '/affine_joint_sim/set_parameters',
+                SetParameters.Request(parameters=[two]))
+    assert done.results[0].successful, done.results[0].reason
+    got = call(ros_node, wait_for, GetParameters, '/affine_joint_sim/get_parameters',
+               GetParameters.Request(names=['real_time_factor'])).values[0]
+    assert got.type == ParameterType.PARAMETER_DOUBLE and got.double_value == 2.0
+    child.stop()
+
+
+def test_the_node_says_how_a_urdf_robot_is_held():
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--scene', 'arm6',
+                           '--mode', 'fast', '--duration', '0.01'],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "base: URDF root link 'world' welded to the world (fixed_base: true" in \
+        done.stderr, done.stderr
+
+
+def test_a_warning_is_one_line_and_warp_says_nothing_on_a_cpu(tmp_path):
+    """Before, every warning came with the project's file, line and source, and every command
+    began with Warp's 'no CUDA driver' line on a CPU machine."""
+    robot = (REPO / 'msg_configs' / 'robots' / 'arm6.urdf').read_text().replace(
+        '<limit lower="-3.1" upper="3.1"', '<limit lower="0" upper="0"', 1)
+    (tmp_path / 'locked.urdf').write_text(robot)
+    done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--scene',
+                           tmp_path / 'locked.urdf', '--mode', 'fast', '--duration', '0.02'],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    lines = done.stderr.splitlines()
+    warning = [line for line in lines if 'lower = upper = 0' in line]
+    assert len(warning) == 1 and warning[0].startswith('SimulationWarning: '), done.stderr
+    assert not any('.py:' in line or 'warnings.warn' in line or 'Warp' in line
+                   for line in lines), done.stderr

@@ -106,3 +106,20 @@ def test_demo_refuses_bad_flags_at_start(flags, message):
     done = cli('demo', *flags)
     assert done.returncode == 2 and message in done.stderr, done.stderr
     assert 'Traceback' not in done.stderr
+
+
+def test_the_controller_report_keeps_its_columns_for_long_joint_names(ros_node):
+    """Before, a joint name over 12 characters pushed its row out of the table."""
+    from sensor_msgs.msg import JointState
+
+    from affine_joint_sim.ros.controller import PDController
+
+    names = ['shoulder', 'left_hip_pitch_joint_with_a_long_name']
+    controller = PDController({name: 0.5 for name in names}, context=ros_node.context)
+    try:
+        controller.last_state = JointState(name=names, position=[0.4, 0.7])
+        table = controller.report().splitlines()[1:]
+    finally:
+        controller.destroy_node()
+    assert len(table) == 3 and len({len(line) for line in table}) == 1, table   # aligned
+    assert [line.split()[0] for line in table] == ['joint', *names], table

@@ -88,6 +88,8 @@ def test_defaults_and_exponent_without_sign():
     (('x0: [-0.05, 0, 0], ', 'type: prismatic, '), 'joints[0]', 'needs x0'),
     (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], type: prismatic, angle_mode: continuous}'),
      'joints[0]', 'angle_mode applies to revolute joints only'),
+    (('x1: [0.05, 0, 0]}', 'x1: [0.05, 0, 0], limit: {lower: 0.5, upper: 1}}'), 'joints[0]',
+     'initial_position 0 is outside the limit [0.5, 1]'),
 ])
 def test_invalid_scenes_name_file_key_path_and_valid_values(edit, path, hint):
     message = error_of(BASE.replace(*edit))

@@ -279,6 +279,46 @@ def test_urdf_limits_stop_the_joint(tmp_path):
     assert -0.13 < swing(-0.1) < -0.1
 
 
+
+def _limited_pendulum(lower, upper):
+    """The hinge's zero position lies outside [lower, upper] when both have one sign (as in
+    stock exports such as the Kinova Gen2's joint_2, [0.82, 5.46])."""
+    return robot('<link name="base"/>' + joint('hinge', 'revolute', 'base', 'arm', '0 0 1',
+                                               extra=f'<limit lower="{lower}" upper="{upper}" '
+                                                     'effort="10" velocity="1"/>')
+                 + '<link name="arm">' + inertial(1.0, '0 0 -0.5', ixx=0.08, iyy=0.08,
+                                                  izz=0.001) + '</link>')
+
+
+def test_a_joint_whose_zero_is_outside_its_limits_starts_at_the_nearest_one_and_moves(
+        tmp_path):
+    """Before, the joint started at 0, 0.82 rad inside its limit: every step was rejected and
+    the robot never moved, without a word beyond 'reduce dt'."""
+    with pytest.warns(SimulationWarning, match="'hinge' starts at its lower limit 0.82 rad"):
+        scene = load(tmp_path, _limited_pendulum(0.82, 5.46))
+    sim = Stepper(scene)
+    assert sim.angles[0] == pytest.approx(0.82, abs=1e-12)
+    for _ in range(30):                          # gravity (3.6 N·m) presses it on its limit
+        sim.step()
+    assert sim.angles[0] == pytest.approx(0.82, abs=0.01)
+    sim.set_torque('hinge', 8.0)                 # and 8 N·m lifts it off
+    for _ in range(30):
+        sim.step()
+    assert sim.problem_totals['non_finite'] == sim.problem_totals['angle_aliased'] == 0
+    assert sim.angles[0] > 0.9
+    with pytest.warns(SimulationWarning, match='upper limit -0.5 rad'):
+        assert load(tmp_path, _limited_pendulum(-2.0, -0.5)).joints[0].initial_position == -0.5
+
+
+def test_initial_positions_outside_the_limits_are_refused_naming_the_joint(tmp_path):
+    with pytest.raises(SceneError, match=r"initial_positions: 'hinge' = 100 rad is outside "
+                                         r"the joint's limits \[-1, 1\] rad"):
+        load(tmp_path, _limited_pendulum(-1.0, 1.0), initial_positions={'hinge': 100})
+    scene = load(tmp_path, _limited_pendulum(-1.0, 1.0), initial_positions={'hinge': 100},
+                 joints={'hinge': {'limit': None}})       # no limit: any start
+    assert scene.joints[0].initial_position == 100
+
+
 # ---- package:// URIs ----------------------------------------------------------------------
 
 MESH_ROBOT = robot('<link name="base"><visual><geometry><mesh filename="package://my_robot/'
@@ -470,10 +510,10 @@ def test_a_revolute_joint_without_bounds_says_what_the_spec_does(tmp_path, limit
     ('<link name="base"/><joint name="j" type="fixed"><parent link="base"/></joint>',
      "<joint> 'j' needs <child"),
     ('<link name="base"/>' + joint('j', 'continuous', 'base', 'arm', 'nan 0 0') + ARM,
-     "joint 'j': <origin> has a non-finite number"),
+     "<origin> of joint 'j': xyz=\"nan 0 0\" must be 3 finite numbers"),
     ('<link name="base"/>' + joint('j', 'continuous', 'base', 'arm')
      + '<link name="arm">' + inertial(mass='inf') + '</link>',
-     "link 'arm': its inertial <mass> has a non-finite number"),
+     "<mass> of link 'arm': value=\"inf\" must be 1 finite number"),
     ('<link name="base"/>' + joint('j', 'continuous', 'base', 'arm')
      + '<link name="arm">' + inertial(mass=-1) + '</link>', "link 'arm': negative mass"),
     ('<link name="base"/>' + joint('j', 'revolute', 'base', 'arm',
@@ -494,7 +534,7 @@ def test_structural_traps_are_errors_naming_the_culprit(tmp_path, body, words):
     ('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><xacro:macro name="m"/>'
      '<link name="a"/></robot>', 'xacro'),
     ('<robot name="r"><link name="a">' + inertial(mass='heavy') + '</link></robot>',
-     'malformed URDF'),
+     'robot.urdf:1: <mass> of link \'a\': value="heavy" must be 1 finite number'),
 ])
 def test_unparsable_files_are_errors_naming_the_file(tmp_path, text, words):
     message = error_of(tmp_path, text)
@@ -567,9 +607,10 @@ def test_free_base_needs_a_massive_root_and_fixed_base_does_not(tmp_path):
     message = error_of(tmp_path, text, fixed_base=False)
     assert "link 'base' is the root of a free-base robot (fixed_base: false) but has no " \
         'mass' in message
-    free = load(tmp_path, robot('<link name="base">' + inertial(3.0) + '</link>'
-                                + joint('hinge', 'continuous', 'base', 'arm') + ARM),
-                fixed_base=False)
+    with pytest.warns(SimulationWarning, match='the robot floats'):
+        free = load(tmp_path, robot('<link name="base">' + inertial(3.0) + '</link>'
+                                    + joint('hinge', 'continuous', 'base', 'arm') + ARM),
+                    fixed_base=False)
     assert not free.bodies[0].fixed
 
 
@@ -580,7 +621,8 @@ def test_free_base_needs_a_massive_root_and_fixed_base_does_not(tmp_path):
     ({'fixed_base': 'maybe'}, 'fixed_base'),
     ({'name': ''}, 'name: String should have at least 1 character'),     # as in a scene
     ({'colour': 'red'}, 'colour: unknown key; valid keys here: name, dt, gravity, solver, '
-                        'fixed_base, merge_fixed, initial_positions, package_paths, joints'),
+                        'fixed_base, merge_fixed, initial_positions, min_mass, package_paths, '
+                        'joints'),
 ])
 def test_bad_overrides_are_errors_naming_the_key(tmp_path, overrides, words):
     text = robot('<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm') + ARM)
@@ -618,3 +660,88 @@ def test_rigid_reference_of_our_scene_equals_pinocchio_on_the_urdf(urdf, start):
     ours, _ = RigidTree(scene).simulate(torques, times, step=1e-3)
     np.testing.assert_allclose(ours, PinocchioArm(urdf, scene).simulate(torques, times),
                                atol=1e-8)
+
+
+def test_a_zero_width_limit_says_it_locks_the_joint(tmp_path):
+    """SolidWorks exports (and example-robot-data's double pendulums) give lower = upper = 0:
+    the joint was locked without a word."""
+    with pytest.warns(SimulationWarning, match="'hinge' .revolute. has lower = upper = 0: its "
+                                               'limit locks it there'):
+        load(tmp_path, _limited_pendulum(0, 0))
+
+
+def test_min_mass_gives_a_massless_moving_link_a_mass(tmp_path):
+    """A massless link between two joints is an error naming the remedy; min_mass gives it
+    that mass (as MuJoCo's boundmass does) and the robot runs."""
+    text = robot('<link name="base"/>' + joint('pan', 'revolute', 'base', 'ghost', '0 0 1',
+                                               axis='0 0 1', extra='<limit lower="-3" upper="3" '
+                                                                   'effort="10" velocity="1"/>')
+                 + '<link name="ghost"/>'
+                 + joint('hinge', 'continuous', 'ghost', 'arm')
+                 + '<link name="arm">' + inertial(1.0, '0 0 -0.5', ixx=0.08, iyy=0.08,
+                                                  izz=0.001) + '</link>')
+    with pytest.raises(SceneError, match="'ghost' moves .* or set min_mass"):
+        load(tmp_path, text)
+    with pytest.warns(SimulationWarning) as said:      # its mass, then its inertia floor
+        scene = load(tmp_path, text, min_mass=0.01)
+    assert "'ghost' weighs 0 kg: given min_mass 0.01 kg" in str(said[0].message)
+    assert "'ghost': inertia [0, 0, 0] is (nearly) degenerate" in str(said[1].message)
+    assert scene.bodies[scene.body_index('ghost')].mass == 0.01
+    sim = Stepper(scene)
+    for _ in range(20):
+        sim.step()
+    assert sim.stats['converged']
+
+
+def test_a_floating_robot_is_told_it_falls(tmp_path):
+    """Before, fixed_base: false fell forever without a word."""
+    with pytest.warns(SimulationWarning, match='the robot floats .fixed_base: false. and nothing '
+                                               'holds it'):
+        scene = load(tmp_path, _limited_pendulum(-1, 1).replace(
+            '<link name="base"/>', '<link name="base">' + inertial(2.0) + '</link>'),
+            fixed_base=False)
+    assert not any(body.fixed for body in scene.bodies)
+
+
+@pytest.mark.parametrize('body, words', [
+    (joint('j', 'continuous', 'base', 'arm', axis='0 1'),
+     ':3: <axis> of joint \'j\': xyz="0 1" must be 3 finite numbers'),
+    (joint('j', 'continuous', 'base', 'arm', axis='0 0 1 0'),
+     '<axis> of joint \'j\': xyz="0 0 1 0" must be 3 finite numbers'),
+    (joint('j', 'continuous', 'base', 'arm').replace('<origin xyz="0 0 0"/>',
+                                                     '<origin rpy="0 0 0 1"/>'),
+     '<origin> of joint \'j\': rpy="0 0 0 1" must be 3 finite numbers'),
+    (joint('j', 'revolute', 'base', 'arm', extra='<limit lower="low" upper="1"/>'),
+     '<limit> of joint \'j\': lower="low" must be 1 finite number (or ±inf)'),
+])
+def test_malformed_numbers_are_one_line_naming_file_line_element_and_joint(tmp_path, body,
+                                                                           words):
+    """Before: a traceback (a 2-number axis), a NumPy matmul message naming nothing (4
+    numbers), accepted silently (4 rpy numbers), or no element named (non-numeric)."""
+    message = error_of(tmp_path, robot('<link name="base"/>' + body + ARM))
+    assert words in message and 'robot.urdf' in message, message
+
+
+def test_an_inertia_without_a_moment_is_refused_not_read_as_one(tmp_path):
+    """Before, a missing ixx was silently read as 1 kg·m²."""
+    arm = '<link name="arm">' + inertial().replace('ixx="0.01" ', '') + '</link>'
+    message = error_of(tmp_path, robot('<link name="base"/>'
+                                       + joint('j', 'continuous', 'base', 'arm') + arm))
+    assert "<inertia> of link 'arm' needs ixx=\"...\" (1 number)" in message, message
+
+
+@pytest.mark.parametrize('name', ['robot.xml', 'robot', 'robot.URDF'])
+def test_a_urdf_is_told_by_its_content_whatever_its_name(tmp_path, name):
+    """Before, anything not named .urdf was read as YAML ('a scene must be a mapping')."""
+    scene = Scene.load(write(tmp_path, PENDULUM, name))
+    assert [j.name for j in scene.joints] == ['hinge']
+
+
+def test_an_unexpanded_xacro_gets_the_xacro_hint_first(tmp_path):
+    """Before: 'the robot has no <link>' from the API (its links are inside macros), and the
+    YAML reader's complaint from the command line (.xacro was read as YAML)."""
+    text = ('<?xml version="1.0"?>\n<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+            '<xacro:macro name="leg"><link name="l"/></xacro:macro></robot>\n')
+    for name in ('robot.urdf.xacro', 'robot.xacro'):
+        with pytest.raises(SceneError, match='contains xacro macros: expand it first'):
+            Scene.load(write(tmp_path, text, name))

@@ -16,7 +16,7 @@ from affine_joint_sim.bench.report import Column, markdown_table, publish
 from affine_joint_sim.bench.section import add_section
 from affine_joint_sim.ros.dds import use_loopback_dds
 
-__all__ = ['add_parser', 'run']
+__all__ = ['add_parser', 'client', 'node_process', 'run', 'spin_until']
 
 
 class Settings(NamedTuple):
@@ -33,12 +33,14 @@ FAST_RUNS = (('pendulum', 30.0, True), ('pendulum', 30.0, False), ('pendulum', 0
              ('arm', 30.0, True), ('arm', 30.0, False), ('arm', 0.0, False))
 
 
-def _node(*flags) -> subprocess.Popen:
+def node_process(*flags, stderr=subprocess.DEVNULL) -> subprocess.Popen:
+    """``affine-joint-sim run FLAGS`` in a child process; its summary comes on stdout."""
     return subprocess.Popen([sys.executable, '-m', 'affine_joint_sim.cli', 'run', *flags],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+                            stdout=subprocess.PIPE, stderr=stderr, text=True)
 
 
-def _client():
+def client():
+    """An rclpy node on a context of its own, its executor, and the topics."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
@@ -52,7 +54,7 @@ def _client():
     return node, executor, load_topics()
 
 
-def _spin_until(executor, predicate, timeout):
+def spin_until(executor, predicate, timeout):
     deadline = time.monotonic() + timeout
     while not predicate() and time.monotonic() < deadline:
         executor.spin_once(timeout_sec=0.05)
@@ -64,7 +66,7 @@ def fast_rate(scene: str, settings: Settings, viz_rate: float = 30.0,
     """Steps/s the node publishes in fast mode, and how many one rclpy subscriber of
     joint_states takes; with ``viewer`` the same process subscribes markers and body_poses
     too (the node then makes them; a Python viewer on the same 2 cores also takes CPU)."""
-    node, executor, topics = _client()
+    node, executor, topics = client()
     received = []
     states = topics['joint_states']
     node.create_subscription(states.msg_class, states.name(),
@@ -74,11 +76,11 @@ def fast_rate(scene: str, settings: Settings, viz_rate: float = 30.0,
                                  topics[key].qos)
     # Long enough in sim time for ~fast_seconds of wall time at the measured rates.
     sim_seconds = {'pendulum': 100.0, 'arm': 50.0}.get(scene, 50.0) * settings.fast_seconds
-    child = _node('--scene', scene, '--mode', 'fast', '--duration', str(sim_seconds),
-                  '--viz-rate', str(viz_rate))
+    child = node_process('--scene', scene, '--mode', 'fast', '--duration', str(sim_seconds),
+                         '--viz-rate', str(viz_rate))
     try:
-        _spin_until(executor, lambda: child.poll() is not None, 600.0)
-        _spin_until(executor, lambda: False, 0.3)       # the tail still in flight
+        spin_until(executor, lambda: child.poll() is not None, 600.0)
+        spin_until(executor, lambda: False, 0.3)       # the tail still in flight
         summary = child.communicate()[0]
     finally:
         node.destroy_node()
@@ -92,10 +94,10 @@ def fast_rate(scene: str, settings: Settings, viz_rate: float = 30.0,
 
 def lockstep_latency(scene: str, settings: Settings) -> dict:
     """Round trip in lockstep: command published → next joint_states received [ms]."""
-    node, executor, topics = _client()
+    node, executor, topics = client()
     commands, states = topics['joint_commands'], topics['joint_states']
     publisher = node.create_publisher(commands.msg_class, commands.name(), commands.qos)
-    child = _node('--scene', scene, '--mode', 'lockstep')
+    child = node_process('--scene', scene, '--mode', 'lockstep')
     sent, latencies, answered = [None], [], []
 
     def answer(msg):
@@ -110,7 +112,7 @@ def lockstep_latency(scene: str, settings: Settings) -> dict:
 
     node.create_subscription(states.msg_class, states.name(), answer, states.qos)
     try:
-        _spin_until(executor, lambda: len(latencies) >= settings.lockstep_steps, 120.0)
+        spin_until(executor, lambda: len(latencies) >= settings.lockstep_steps, 120.0)
     finally:
         child.terminate()
         child.communicate()

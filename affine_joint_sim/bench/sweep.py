@@ -138,6 +138,7 @@ def run(results: Path, devices: list[str], settings: Settings, cases=None, execu
                    if settings.cases is None or c.name in settings.cases]
     jobs = setting_jobs(batches, settings, devices)
     progress = Progress(len(jobs))
+    progress.show('starting')
 
     def tick(rows):
         progress.show(rows.why if isinstance(rows, LostJob) else

@@ -1,6 +1,7 @@
 """One bag re-simulated, as a job any worker can run: plain arguments in, a plain dict out
 (picklable for process pools and Ray), never an exception: whatever goes wrong with a bag is
-its result's error."""
+its result's error. Executors run it through ``worker.run_job`` (Warp quiet, warnings
+returned)."""
 
 import time
 
@@ -23,13 +24,9 @@ def replay_job(bag: str, tol: float, scene: str | None = None, device: str = 'cp
     |Δθ| [rad] and |Δω| [rad/s] over joints, ``worst`` the larger of both, ``seconds`` the
     wall time of the job, ``error`` the reason of status 'error' (else '').
     """
-    import warp as wp
-
     from affine_joint_sim.ros.replay import ReplayError, read_bag, replay
     from affine_joint_sim.scene import SceneError
 
-    wp.config.log_level = wp.LOG_WARNING
-    wp.config.quiet = True
     start = time.perf_counter()
     result = failed_result(bag, '')
     try:

@@ -1,114 +1,130 @@
 """``affine-joint-sim sweep SPEC.yaml --out DIR [--workers N | --ray ADDRESS]``: the bench's
-speed/accuracy sweep over a declared grid, its settings run as parallel jobs.
-
-The spec (YAML, every key optional but one case)::
-
-    cases: [pendulum, arm6]          # cases of `bench sweep` (bench.cases) by name
-    scenes:                          # any scene or URDF under constant torques [N·m]
-      - {scene: my_robot.urdf, torques: {elbow: 0.5}, duration: 0.5}
-      - {scene: arm, torques: [{yaw: 0.1}, {yaw: 0.3}, {yaw: 1.0}]}   # command profiles
-    dt: [0.01, 0.005]                # s
-    integrator: [bdf1, bdf2]
-    newton_tol: [1.0e-4]
-    precision: [float64]
-    device: [cpu]
-    repeats: 1                       # timed runs per setting (median)
+speed/accuracy sweep over a declared grid (the spec: ``sweep_spec``), its settings run as
+parallel jobs.
 
 It writes what ``bench sweep`` writes (sweep.csv, sweep.md, the Pareto and order plots) into
 --out, through the same code (``bench.sweep.run``), without the wheel's damping section. The
 command profiles of one scene entry are one job per setting: the environments of one batched
 stepper (``num_envs``), each compared with its own reference.
+
+Before any job runs it checks the spec, says how many jobs there are (and warns above
+``LARGE``), and computes every case's reference, with a progress bar (which also checks that
+the rigid reference can model the case). Ctrl-C or SIGTERM stops it (``stopping``): the rows
+of the jobs that finished go to sweep.csv, and it exits 130 or 143.
 """
 
 import sys
 from pathlib import Path
-from typing import Annotated, Literal
 
-import yaml
-from pydantic import Field, ValidationError
+from affine_joint_sim.fleet.stopping import Stopped, stoppable
+from affine_joint_sim.fleet.sweep_spec import check_devices, load_spec
+from affine_joint_sim.progress import Progress, print_above
 
-from affine_joint_sim.scene import Number, StrictModel, validation_report
+__all__ = ['main', 'LARGE']
 
-__all__ = ['SweepSpec', 'main']
-
-PositiveList = Annotated[list[Annotated[Number, Field(gt=0.0)]], Field(min_length=1)]
-
-
-class SpecScene(StrictModel):
-    scene: str
-    torques: dict[str, Number] | Annotated[list[dict[str, Number]], Field(min_length=1)] = {}
-    duration: Annotated[Number, Field(gt=0.0)] = 0.5
-
-    def profiles(self) -> list[dict]:
-        return self.torques if isinstance(self.torques, list) else [self.torques]
-
-
-class SweepSpec(StrictModel):
-    """A sweep: cases × dt × integrator × newton_tol × precision × device."""
-
-    cases: list[str] = []
-    scenes: list[SpecScene] = []
-    dt: PositiveList = [0.01, 0.005]
-    integrator: Annotated[list[Literal['bdf1', 'bdf2']], Field(min_length=1)] = ['bdf1', 'bdf2']
-    newton_tol: PositiveList = [1e-4]
-    precision: Annotated[list[Literal['float64', 'float32']], Field(min_length=1)] = [
-        'float64']
-    device: Annotated[list[str], Field(min_length=1)] = ['cpu']
-    repeats: Annotated[int, Field(ge=1, le=100)] = 1
-
-    def batches(self) -> list[list]:
-        """Case keys of ``bench.sweep.case_and_truth``, grouped into batches: a named case
-        alone, a scene entry's command profiles together."""
-        return [[name] for name in self.cases] + [
-            [(s.scene, tuple(sorted(p.items())), s.duration) for p in s.profiles()]
-            for s in self.scenes]
-
-
-def load_spec(path: Path) -> SweepSpec:
-    """Read and check a spec; ValueError with one line per problem."""
-    from affine_joint_sim.bench.cases import cases
-
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise ValueError(f'{path}: cannot read a sweep spec ({exc})') from None
-    try:
-        spec = SweepSpec.model_validate(data if data is not None else {})
-    except ValidationError as exc:
-        raise ValueError(validation_report(str(path), exc, SweepSpec, 'sweep spec')) from None
-    known = [c.name for c in cases()]
-    unknown = [name for name in spec.cases if name not in known]
-    if unknown:
-        raise ValueError(f'{path}: cases {unknown} are not sweep cases ({", ".join(known)}); '
-                         'put other scenes under scenes:')
-    if not spec.batches():
-        raise ValueError(f'{path}: give at least one entry in cases: or scenes:')
-    return spec
+LARGE = 1000   # jobs above which a sweep is warned about: ~twice the full `bench sweep` on a CPU
 
 
 def main(args) -> int:
-    """Run the sweep; 0, or 2 with the problem on stderr."""
-    from affine_joint_sim.bench.sweep import Settings, case_and_truth, run
+    """Run the sweep; 0, 2 with the problem on stderr, or 128 + a stop signal's number."""
+    from affine_joint_sim.bench.sweep import Settings, run, setting_jobs
     from affine_joint_sim.fleet.cli import executor_for
 
+    path = Path(args.spec)
     try:
-        spec = load_spec(Path(args.spec))
-        for batch in spec.batches():         # every case and its truth, before any job runs
-            for key in batch:
-                case_and_truth(key)
-    except Exception as exc:                 # a spec, scene or reference that cannot be used
-        print(f'affine-joint-sim sweep: error: {str(exc).strip()}', file=sys.stderr)
-        return 2
+        spec = load_spec(path)
+        if args.ray in (None, 'local'):           # a cluster's devices are its hosts'
+            check_devices(path, spec)
+        settings = Settings(tuple(spec.dt), tuple(spec.integrator), tuple(spec.newton_tol),
+                            tuple(spec.precision), None, spec.repeats, damping=False)
+        jobs = len(setting_jobs(spec.batches(), settings, spec.device))
+        executor, how = executor_for(args.workers, args.ray, jobs, _warned)
+    except (ValueError, OSError, RuntimeError) as exc:
+        return _error(exc)
+    batches = len(spec.batches())
+    _say(f'{jobs} jobs ({_cases(batches)} × {jobs // batches} settings) on {how}')
+    if jobs > LARGE:
+        _say(f'warning: {jobs} jobs is a large sweep (above {LARGE}): Ctrl-C stops it and '
+             'keeps the rows of the jobs done')
+    finished = []
     try:
-        executor, how = executor_for(args.workers, args.ray, len(spec.batches()) * len(
-            spec.dt) * len(spec.integrator) * len(spec.newton_tol) * len(spec.precision)
-            * len(spec.device))
-    except RuntimeError as exc:
-        print(f'affine-joint-sim sweep: error: {exc}', file=sys.stderr)
-        return 2
-    args.out.mkdir(parents=True, exist_ok=True)
-    settings = Settings(tuple(spec.dt), tuple(spec.integrator), tuple(spec.newton_tol),
-                        tuple(spec.precision), None, spec.repeats, damping=False)
-    run(args.out, spec.device, settings, executor=executor, batches=spec.batches())
+        with stoppable():
+            try:
+                _references(spec.batches())
+            except ValueError as exc:             # a case the rigid reference cannot model
+                return _error(exc)
+            args.out.mkdir(parents=True, exist_ok=True)
+            run(args.out, spec.device, settings, executor=_counting(executor, finished),
+                batches=spec.batches())
+    except Stopped as stop:
+        return _stopped(stop, finished, jobs, args.out)
     print(f'ran on {how}')
     return 0
+
+
+def _error(exc: Exception) -> int:
+    """The problem, one line on stderr; exit status 2."""
+    print(f'affine-joint-sim sweep: error: {str(exc).strip()}', file=sys.stderr)
+    return 2
+
+
+def _say(line: str) -> None:
+    """What the sweep is doing, on stderr (stdout has its results)."""
+    print(f'sweep: {line}', file=sys.stderr)
+
+
+def _cases(count: int) -> str:
+    """'1 case', '2 cases'."""
+    return f'{count} case{"s" * (count != 1)}'
+
+
+def _references(batches: list) -> None:
+    """Every case's reference, computed here once (RK4: seconds for a large scene) so that a
+    case it cannot model stops the sweep before any job runs."""
+    from affine_joint_sim.bench.sweep import case_and_truth
+
+    keys = [key for batch in batches for key in batch]
+    _say(f'computing the rigid-body reference of {_cases(len(keys))} (each worker computes '
+         'those of its jobs again)')
+    bar = Progress(len(keys))
+    for key in keys:
+        bar.show(key if isinstance(key, str) else key[0])
+        case_and_truth(key)
+        bar.advance()
+
+
+def _warned(job: dict, line: str) -> None:
+    """A warning of a job, on its own line, naming the job's cases and setting."""
+    from affine_joint_sim.bench.sweep import case_and_truth
+
+    names = ', '.join(case_and_truth(key)[0].name for key in job['cases'])
+    print_above(f'warning: {names} {job["device"]} {job["precision"]} {job["integrator"]} '
+                f'dt {job["dt"]:g} newton_tol {job["newton_tol"]:g}: {line}')
+
+
+def _counting(executor, finished: list):
+    """``executor``, also appending each job's result to ``finished`` as it comes."""
+    def counted(function, jobs, progress):
+        def tick(result):
+            finished.append(result)
+            progress(result)
+
+        return executor(function, jobs, tick)
+
+    return counted
+
+
+def _stopped(stop: Stopped, finished: list, jobs: int, out: Path) -> int:
+    """Write the rows of the ``finished`` jobs to sweep.csv, say so; 128 + the signal."""
+    from affine_joint_sim.bench.report import write_csv
+    from affine_joint_sim.fleet.executors import LostJob
+
+    sys.stderr.write('\n')                        # the progress bar's line ends
+    rows = [row for result in finished if not isinstance(result, LostJob) for row in result]
+    where = 'nothing written'
+    if rows:
+        write_csv(out / 'sweep.csv', rows)
+        where = (f'their {len(rows)} rows are in {out / "sweep.csv"} (no sweep.md or plots: '
+                 'they need every job)')
+    print(f'stopped by {stop.name}: {len(finished)} of {jobs} jobs finished; {where}')
+    return stop.exit_status

@@ -24,11 +24,16 @@ class CommandBuffer:
             order (ros2_control's ``joints`` of a group controller); default ``joint_names``.
         drive_joints: the joints that have a drive (take a position command).
         effort_bounds: per joint of ``joint_names``, the largest |torque| [N·m] or |force| [N]
-            a step can represent (Stepper.step_effort_bounds); larger commands are dropped.
+            a step can represent (Stepper.step_effort_bounds); larger commands are clamped to
+            it, with a notice.
+        enabled: per joint of ``joint_names``, whether its torque is on at the start (the
+            scene's); a torque sent to a disabled joint is said once (it acts only once the
+            joint is enabled).
     """
 
     def __init__(self, joint_names: list[str], command_timeout: float = 0.0,
-                 array_joints: list[str] | None = None, drive_joints=(), effort_bounds=None):
+                 array_joints: list[str] | None = None, drive_joints=(), effort_bounds=None,
+                 enabled=None):
         self.joint_names = list(joint_names)
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.command_timeout = command_timeout
@@ -37,6 +42,8 @@ class CommandBuffer:
         self.effort_bounds = [math.inf] * len(self.joint_names) if effort_bounds is None \
             else [float(b) for b in effort_bounds]
         self._no_drive_said: set[str] = set()
+        self._initially_enabled = [True] * len(self.joint_names) if enabled is None \
+            else [bool(e) for e in enabled]
         self.reset([0.0] * len(self.joint_names))
 
     @classmethod
@@ -50,7 +57,8 @@ class CommandBuffer:
         limits = np.array([sim.scene.joints[k].effort_limit for k in index])
         return cls(sim.command_joint_names, command_timeout, array_joints=array_joints,
                    drive_joints=sim.drive_joint_names,
-                   effort_bounds=np.where(limits <= bounds, np.inf, bounds))
+                   effort_bounds=np.where(limits <= bounds, np.inf, bounds),
+                   enabled=[sim.scene.joints[k].enabled for k in index])
 
     def reset(self, torques, sim_time: float = 0.0) -> None:
         """Forget pending commands; ``torques`` [N·m] (the scene's) count as commanded at
@@ -60,6 +68,8 @@ class CommandBuffer:
         self._target: dict[str, float] = {}
         self._last_command = [sim_time] * len(self.joint_names)
         self._held = [float(t) != 0.0 for t in torques]     # a non-zero torque that can time out
+        self._on = list(self._initially_enabled)             # each joint's torque switch, as set
+        self._disabled_said: set[int] = set()
 
     def torque(self, joint: str, value: float) -> str | None:
         """Queue torque ``value`` [N·m] (force [N] for a prismatic joint) for ``joint``;
@@ -69,12 +79,19 @@ class CommandBuffer:
             return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
         if not math.isfinite(value):
             return f'torque {value!r} for joint {joint!r} is not finite: dropped'
+        problem = None
         if abs(value) > self.effort_bounds[k]:
-            return (f'torque/force {value:g} for joint {joint!r} is beyond what one step can '
-                    f'represent (|value| <= {self.effort_bounds[k]:.4g}: more would turn or throw '
-                    'its body further than the step can follow): dropped')
+            bound = self.effort_bounds[k]
+            problem = (f'torque/force {value:g} for joint {joint!r} is beyond what one step can '
+                       f'represent (|value| <= {bound:.4g}: more would turn or throw its body '
+                       'further than the step can follow): clamped to it')
+            value = math.copysign(bound, value)
+        elif not self._enabled.get(k, self._on[k]) and k not in self._disabled_said:
+            self._disabled_said.add(k)
+            problem = (f'joint {joint!r} is disabled (its torque switch is off): its torques '
+                       'have no effect until it is enabled (said once)')
         self._torque[k] = float(value)
-        return None
+        return problem
 
     def enable(self, joint: str, flag: bool) -> str | None:
         """Queue the enable flag of ``joint``'s torque; returns why it was rejected, or None."""
@@ -84,39 +101,39 @@ class CommandBuffer:
         self._enabled[k] = bool(flag)
         return None
 
+    def malformed(self, key: str, msg) -> str | None:
+        """Why a whole command message on topic ``key`` is unusable (its arrays' lengths do
+        not match), or None. Such a message is dropped whole: it commands and answers nothing."""
+        if key == 'joint_commands' and len(msg.name) != len(msg.effort):
+            return f'{len(msg.name)} names but {len(msg.effort)} efforts: message dropped'
+        if key in ('effort_commands', 'position_commands') \
+                and len(msg.data) != len(self.array_joints):
+            what = 'efforts' if key == 'effort_commands' else 'positions'
+            return (f'{len(msg.data)} {what} but command_joints has {len(self.array_joints)} '
+                    f'({", ".join(self.array_joints)}): message dropped')
+        return None
+
     def joint_commands(self, names, efforts) -> list[str]:
-        """Queue a ``joint_commands`` message's torques (``name[i]`` gets ``effort[i]``).
+        """Queue a ``joint_commands`` message's torques (``name[i]`` gets ``effort[i]``, the
+        lengths checked by ``malformed``).
 
         Entries with an unknown name or a non-finite effort are dropped, the rest applied;
         returns the reasons for the dropped ones.
         """
-        if len(names) != len(efforts):
-            return [f'{len(names)} names but {len(efforts)} efforts: message dropped']
         problems = [self.torque(name, effort) for name, effort in zip(names, efforts)]
         return [p for p in problems if p is not None]
 
-    def _array(self, values, what: str) -> str | None:
-        if len(values) == len(self.array_joints):
-            return None
-        return (f'{len(values)} {what} but command_joints has {len(self.array_joints)} '
-                f'({", ".join(self.array_joints)}): message dropped')
-
     def effort_array(self, values) -> list[str]:
         """Queue an ``effort_commands`` array: ``values[i]`` [N·m | N] for
-        ``array_joints[i]``; returns the reasons for what was dropped."""
-        problem = self._array(values, 'efforts')
-        if problem:
-            return [problem]
+        ``array_joints[i]`` (the length checked by ``malformed``); returns the reasons for
+        what was dropped."""
         problems = [self.torque(name, v) for name, v in zip(self.array_joints, values)]
         return [p for p in problems if p is not None]
 
     def position_array(self, values) -> list[str]:
         """Queue a ``position_commands`` array: drive targets [rad | m] for the joints of
         ``array_joints`` that have a drive (the others are said once); returns the reasons
-        for what was dropped."""
-        problem = self._array(values, 'positions')
-        if problem:
-            return [problem]
+        for what was dropped (the length checked by ``malformed``)."""
         problems = []
         for name, value in zip(self.array_joints, values):
             if name not in self.drive_joints:
@@ -136,6 +153,9 @@ class CommandBuffer:
         ``joint``, ``joint_commands``, ``effort_commands`` or ``position_commands``); returns
         the reasons for what was dropped. The node and the bag replay both feed commands
         here."""
+        problem = self.malformed(key, msg)
+        if problem is not None:
+            return [problem]
         if key == 'joint_commands':
             return self.joint_commands(list(msg.name), list(msg.effort))
         if key == 'effort_commands':
@@ -158,6 +178,9 @@ class CommandBuffer:
             self._held[k] = value != 0.0
         for k, flag in self._enabled.items():
             stepper.set_enabled(self.joint_names[k], flag)
+            self._on[k] = flag
+            if flag:
+                self._disabled_said.discard(k)
         for name, target in self._target.items():
             stepper.set_target(name, target)
         self._torque.clear()

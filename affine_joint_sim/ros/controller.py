@@ -98,14 +98,16 @@ class PDController(Node):
             return 'PD controller: no joint_states received'
         msg = self.last_state
         t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        width = max([12, *map(len, self.targets)])    # the joint column fits every name
         copies = (f' ({self.copies_skipped} copies of an answered state skipped)'
                   if self.copies_skipped else '')
         lines = [f'PD controller (kp {self.kp:g}, kd {self.kd:g}): {self.states_received} states '
                  f'answered{copies}, last at t = {t:.3f} s',
-                 f'{"joint":<12} {"target [rad]":>13} {"final [rad]":>13} {"error [rad]":>13}']
+                 f'{"joint":<{width}} {"target [rad]":>13} {"final [rad]":>13} '
+                 f'{"error [rad]":>13}']
         for joint, target in self.targets.items():
             angle = msg.position[list(msg.name).index(joint)]
-            lines.append(f'{joint:<12} {target:13.6f} {angle:13.6f} {angle - target:13.6f}')
+            lines.append(f'{joint:<{width}} {target:13.6f} {angle:13.6f} {angle - target:13.6f}')
         return '\n'.join(lines)
 
 

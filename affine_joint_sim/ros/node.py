@@ -21,6 +21,8 @@ from rclpy.duration import Duration
 from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.executors import ExternalShutdownException, ShutdownException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSCompatibility, qos_check_compatible
 from rclpy.serialization import deserialize_message, serialize_message
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -48,6 +50,28 @@ NODE_NAME = 'affine_joint_sim'
 _WARN_EVERY = 2.0       # wall seconds between two warnings about the same topic
 _RATE_WINDOW = 2.0      # wall seconds over which the realtime factor is checked
 _YIELD_EVERY = 0.0005   # wall seconds of stepping after which the callback thread gets the GIL
+
+
+def _as_declared_type(parameter: Parameter) -> Parameter:
+    """An integer for a float parameter as the float it means (`ros2 param set ... 2` keeps
+    real_time_factor a double); any other parameter as it is."""
+    spec = PARAMETERS.get(parameter.name)
+    if spec is not None and isinstance(spec.default, float) \
+            and parameter.type_ == Parameter.Type.INTEGER:
+        return Parameter(parameter.name, Parameter.Type.DOUBLE, float(parameter.value))
+    return parameter
+
+
+def _base_note(scene: Scene) -> str:
+    """For a URDF robot, how its root link is held: welded to the world (fixed_base, the
+    default: an arm on its mount) or floating."""
+    if scene.robot_description is None or not scene.bodies:
+        return ''
+    root = scene.bodies[0]
+    if root.fixed:
+        return (f'; base: URDF root link {root.name!r} welded to the world (fixed_base: true, '
+                'the default; fixed_base: false makes the robot float)')
+    return f'; base: floating (fixed_base: false): root link {root.name!r} is free'
 
 
 class SimNode(Node):
@@ -86,9 +110,10 @@ class SimNode(Node):
         self.topics = load_topics()
         self.paused = False
         self.gate = LockstepGate(self.config['lockstep_publishers'])
-        self._commands_topic = ''       # resolved joint_commands name (for the waiting report)
-        self._warned_publishers = 0     # publisher count last warned about (lockstep)
+        self._answer_subs = {}          # resolved answer topic name -> its subscription
+        self._warned_publishers = None  # matched publisher count last warned about (lockstep)
         self.oversized = 0              # command messages dropped for max_command_bytes
+        self.malformed = 0              # command messages dropped whole (array lengths)
         self.taken = 0                  # command messages taken (decoded and queued)
         self._wake = threading.Condition()     # guards everything below; notified by callbacks
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
@@ -99,7 +124,8 @@ class SimNode(Node):
         self._bag_topics: list[BagTopic] = []      # every topic published or taken
         self._make_interfaces()
         self.loop = SimLoop(self.sim, self.commands, self.pacer, self.gate)
-        self.recording = RunRecording(self._open_bag(), self.get_logger().error)
+        self.recording = RunRecording(self._open_bag(), self.get_logger().error,
+                                      self.get_logger().warning)
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
             self._publish_and_record(self.scene_pub, scene_msg, 0)
@@ -112,14 +138,17 @@ class SimNode(Node):
         except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
             self.close_bag()
             raise
+        self.add_pre_set_parameters_callback(
+            lambda parameters: [_as_declared_type(p) for p in parameters])
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
-        self._started = (time.monotonic(), 0)
-        self._last_step_wall = self._started[0]
+        self._started = time.monotonic()        # the run's start (summary), kept at resets
+        self._last_step_wall = self._started
+        self._run_steps = 0
         self.get_logger().info(
             f'scene {self.scene.name!r} ({len(self.sim.body_names)} bodies, joints '
             f'{", ".join(self.sim.joint_names)}), dt {self.scene.dt} s, device '
-            f'{self.sim.device}, mode {self.config["mode"]}')
+            f'{self.sim.device}, mode {self.config["mode"]}{_base_note(self.scene)}')
 
     # ---- setup ------------------------------------------------------------------------------
 
@@ -127,7 +156,15 @@ class SimNode(Node):
         """Declare every parameter with what ``ros2 param describe`` shows: its help, and
         read-only unless it may change while the node runs (rclpy refuses a change to it).
         Dynamic typing: ``-p duration:=5`` (an integer) is a valid float; ``check`` says what is
-        valid for every parameter."""
+        valid for every parameter. A float given as an integer is declared a float; a name this
+        node does not know (a typo in a params file) is refused."""
+        overrides = self._parameter_overrides      # rclpy's: from -p and --params-file
+        unknown = sorted(set(overrides) - set(PARAMETERS) - set(self._parameters))
+        if unknown:
+            raise ConfigError(f'unknown parameter {", ".join(map(repr, unknown))} (from -p or '
+                              f'--params-file; valid: {", ".join(PARAMETERS)})')
+        for name, parameter in list(overrides.items()):
+            overrides[name] = _as_declared_type(parameter)
         config = {}
         for name, spec in PARAMETERS.items():
             descriptor = ParameterDescriptor(description=spec.help, read_only=not spec.live,
@@ -183,8 +220,6 @@ class SimNode(Node):
                               'use a shorter joint name') from None
         msg_class = topic.msg_class
         answers = key in ANSWER_KEYS
-        if key == 'joint_commands':
-            self._commands_topic = name
 
         def receive(raw):
             if len(raw) > self.config['max_command_bytes']:
@@ -196,6 +231,11 @@ class SimNode(Node):
                 return
             msg = deserialize_message(raw, msg_class)
             with self._wake:
+                problem = self.commands.malformed(key, msg)
+                if problem is not None:       # answers no state, commands nothing
+                    self.malformed += 1
+                    self._reject(name, f'{problem} ({self.malformed} so far)', kind='malformed')
+                    return
                 if answers and self.config['mode'] == 'lockstep':
                     header = getattr(msg, 'header', None)    # arrays carry no stamp
                     stamp = header.stamp.sec * 1_000_000_000 + header.stamp.nanosec \
@@ -219,7 +259,9 @@ class SimNode(Node):
                 for problem in self.commands.take(key, joint, msg):
                     self._reject(name, problem)
 
-        self.create_subscription(msg_class, name, receive, topic.qos, raw=True)
+        subscription = self.create_subscription(msg_class, name, receive, topic.qos, raw=True)
+        if answers:
+            self._answer_subs[name] = subscription
         self._bag_topics.append(BagTopic(name, topic.type, topic.qos))
 
     def _open_bag(self):
@@ -353,8 +395,6 @@ class SimNode(Node):
         self.loop.reset()
         self._event({'event': 'reset'})
         self.viz.reset(self.loop.bag_ns)
-        self._started = (time.monotonic(), 0)
-        self._last_step_wall = self._started[0]
         self.publish_state()
 
     def step(self):
@@ -363,6 +403,7 @@ class SimNode(Node):
         for notice in self.loop.step():
             self.get_logger().warning(notice)
         self._last_step_wall = time.monotonic()
+        self._run_steps += 1
         self.publish_state()
 
     def close_bag(self):
@@ -403,34 +444,59 @@ class SimNode(Node):
         waited = self.gate.report_due()
         if waited is None:
             return
-        publishers = self.get_publishers_info_by_topic(self._commands_topic)
-        names = ', '.join(sorted({p.node_name for p in publishers})) or 'none'
-        if not publishers:
-            why = 'no publisher is matched'
-        else:
-            why = (f'{len(publishers)} publisher(s) matched (nodes: {names}), '
-                   f'{self.gate.answers} of {self.gate.publishers} answers so far')
+        matched, names, mismatched = self._answer_publishers()
+        why = (f'{matched} publisher(s) matched (nodes: {names}), ' if matched else
+               'no publisher is matched, ') + (
+            f'{self.gate.answers} of {self.gate.publishers} answers so far')
         self.get_logger().warning(
-            f'lockstep: waiting {waited:.1f} s for {self._commands_topic} answering the state '
-            f'at t = {self.gate.stamp_ns * 1e-9:.6f} s: {why}')
+            f'lockstep: waiting {waited:.1f} s for an answer on {", ".join(self._answer_subs)} '
+            f'to the state at t = {self.gate.stamp_ns * 1e-9:.6f} s: {why}{mismatched}')
+        self._check_publishers()
+
+    def _answer_publishers(self) -> tuple[int, str, str]:
+        """(publishers matched on the answer topics, the nodes that publish there, and a note
+        on publishers that DDS will not match: their QoS, and what the node's is)."""
+        matched = sum(sub.get_publisher_count() for sub in self._answer_subs.values())
+        qos = self.topics['joint_commands'].qos
+        nodes, incompatible = set(), []
+        for name in self._answer_subs:
+            for info in self.get_publishers_info_by_topic(name):
+                nodes.add(info.node_name)
+                compatibility, _ = qos_check_compatible(info.qos_profile, qos)
+                if compatibility == QoSCompatibility.ERROR:
+                    incompatible.append(f'{info.node_name} on {name} '
+                                        f'({info.qos_profile.reliability.name.lower()})')
+        note = '' if not incompatible else (
+            f'; QoS-incompatible publishers, never matched: {", ".join(incompatible)}: '
+            f'commands must be published {qos.reliability.name.lower()} (the default QoS)')
+        return matched, ', '.join(sorted(nodes)) or 'none', note
 
     def _finished(self) -> bool:
         return self.loop.finished(self.config['duration'])
 
     def _check_publishers(self):
-        """Lockstep: warn (once per count) when more controllers publish commands than the
-        gate waits for, since which of them drives a step then depends on timing."""
-        publishers = self.get_publishers_info_by_topic(self._commands_topic)
-        count = len(publishers)
-        if count <= self.gate.publishers or count == self._warned_publishers:
+        """Lockstep: warn (once per count) when the matched controllers are more than the gate
+        waits for (which of them drives a step then depends on timing) or, once some are
+        matched, fewer (each step then waits for answers that do not come: it goes on only
+        when a controller answers the state the node republishes every 0.2 s)."""
+        count, names, mismatched = self._answer_publishers()
+        expected = self.gate.publishers
+        if count == expected or count == self._warned_publishers or (count == 0 and expected):
             return
         self._warned_publishers = count
-        names = ', '.join(sorted({p.node_name for p in publishers}))
-        self.get_logger().warning(
-            f'lockstep: {count} publishers on {self._commands_topic} (nodes: {names}) but '
-            f'lockstep_publishers is {self.gate.publishers}: a step goes on the first '
-            f'{self.gate.publishers} answer(s); set lockstep_publishers to the number of '
-            'controllers for a deterministic loop')
+        topics = ', '.join(self._answer_subs)
+        if count > expected:
+            self.get_logger().warning(
+                f'lockstep: {count} publishers on {topics} (nodes: {names}) but '
+                f'lockstep_publishers is {expected}: a step goes on the first {expected} '
+                'answer(s); set lockstep_publishers to the number of controllers for a '
+                'deterministic loop')
+        else:
+            self.get_logger().warning(
+                f'lockstep: lockstep_publishers is {expected} but {count} publisher(s) are '
+                f'matched on {topics} (nodes: {names}){mismatched}: each step waits for answers '
+                'that may not come and crawls at the 0.2 s republish; set lockstep_publishers '
+                'to the number of controllers')
 
     def _check_rate(self):
         now = time.monotonic()
@@ -499,16 +565,19 @@ class SimNode(Node):
             self.state_pub.wait_for_all_acked(Duration(seconds=1.0))
 
     def summary(self) -> dict:
-        """Figures of the run since the last reset: steps, wall time, steps/s, real-time factor."""
-        wall = self._last_step_wall - self._started[0]
-        steps = self.sim.step_count - self._started[1]
-        return {'steps': steps, 'sim_time': self.sim.time, 'wall_time': wall,
+        """Figures of the whole run, resets included: steps, simulated and wall time, steps/s,
+        real-time factor, commands, and the steps that did not converge or were rejected."""
+        wall = self._last_step_wall - self._started
+        steps, sim_time = self._run_steps, self._run_steps * self.sim.scene.dt
+        return {'steps': steps, 'sim_time': sim_time, 'wall_time': wall,
                 'steps_per_second': steps / wall if wall > 0 else 0.0,
-                'real_time_factor': self.sim.time / wall if wall > 0 else 0.0,
+                'real_time_factor': sim_time / wall if wall > 0 else 0.0,
+                'problems': self.sim.problem_totals,
                 'fell_behind': self.pacer.fell_behind, 'mode': self.config['mode'],
                 'angles': dict(zip(self.sim.joint_names, self.sim.angles.tolist())),
                 'taken': self.taken,
-                'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized},
+                'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized,
+                            'malformed': self.malformed},
                 'surplus_answers': self.gate.surplus,
                 'bag': self.config['record'] or None,
                 'rotation_strain': float(self.sim.stats['rotation_strain']),

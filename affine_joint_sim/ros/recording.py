@@ -1,6 +1,7 @@
 """The node's recording policy on top of a BagRecorder: commands are recorded at the bag time
-of the step they apply to, and a failed write (a full disk, a lost drive) stops the recording,
-said once with what the bag keeps, while the run goes on. ROS-free.
+of the step they apply to; a failed write (a full disk, a lost drive) stops the recording,
+said once with what the bag keeps, while the run goes on; a split that stays open because the
+bag's writer thread is behind is said, not waited for. ROS-free.
 """
 
 __all__ = ['RunRecording']
@@ -12,13 +13,18 @@ class RunRecording:
     Args:
         recorder: the BagRecorder, or None when the run is not recorded.
         report: called once with the error message if recording stops early.
+        warn: called with a warning each time a split stays open past its time because the
+            bag's writer thread is still closing the previous one.
     """
 
-    def __init__(self, recorder, report):
+    def __init__(self, recorder, report, warn):
         self.recorder = recorder
         self.report = report
+        self.warn = warn
         self.stopped: str | None = None        # why recording stopped early, if it did
         self._inbox: list[tuple[str, bytes]] = []   # commands taken, not yet recorded
+        self._abandoned = None                 # the recorder that stopped early
+        self._late_said = 0                    # late splits warned about
 
     @property
     def active(self) -> bool:
@@ -43,8 +49,17 @@ class RunRecording:
 
     def flush_if_due(self) -> None:
         self._do(lambda bag: bag.flush_if_due())
+        late = self.recorder.late_splits if self.recorder is not None else 0
+        if late > self._late_said:
+            self._late_said = late
+            self.warn(f'recording: the bag writer is still closing the previous split, so the '
+                      f'split being written stays open longer ({late} late split(s) so far); '
+                      'the simulation does not wait for it')
 
     def close(self) -> None:
+        """Finish the bag, or wait for a stopped recorder to clean up after itself."""
+        if self._abandoned is not None:
+            self._abandoned.close()
         self._do(lambda bag: bag.close())
 
     def _do(self, action):
@@ -55,6 +70,7 @@ class RunRecording:
         except OSError as exc:
             recorder, self.recorder = self.recorder, None
             recorder.abandon()
+            self._abandoned = recorder
             self._inbox.clear()
             self.stopped = str(exc)
             self.report(

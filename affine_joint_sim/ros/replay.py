@@ -10,6 +10,7 @@ applies from the first step starting at or after t, and the recorded states are 
 the re-simulated trajectory interpolated linearly at their stamps: the offline what-if tool.
 """
 
+import itertools
 import math
 import re
 import sys
@@ -23,6 +24,7 @@ from rclpy.duration import Duration
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.rosbag2 import Reader
 
+from affine_joint_sim.quiet_warp import quiet_warp
 from affine_joint_sim.resources import scene_path as packaged_scene_path
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
@@ -101,6 +103,7 @@ class RecordedBag:
     messages: list[_Message] = field(default_factory=list)
     scene_yaml: str | None = None
     command_topics: dict[str, str] = field(default_factory=dict)     # topic name -> msgtype
+    span_ns: tuple[int, int] = (0, 0)       # the bag's first and last message time [ns]
 
 
 def _classifier():
@@ -122,20 +125,31 @@ def _classifier():
     return classify
 
 
-def read_bag(path) -> RecordedBag:
-    """Read every message of a bag (rosbag2 directory, or a single .mcap/.db3 file).
+def read_bag(path, kinds=None, start_ns: int | None = None,
+             stop_ns: int | None = None) -> RecordedBag:
+    """Read a bag (rosbag2 directory, or a single .mcap/.db3 file): every message, or only
+    those of the topic ``kinds`` (keys of topics.yaml) between bag times ``start_ns`` and
+    ``stop_ns`` [ns] (the scene is always read). The storage's indexes skip the rest.
 
     Raises:
         ReplayError: missing path, not a bag, or a damaged one.
     """
     path = Path(path)
-    if not path.exists():
-        raise ReplayError(f'{path}: no such file or directory')
+    _check_bag_path(path)
     classify = _classifier()
     bag = RecordedBag(path)
     try:
         with Reader(path) as reader:
-            for connection, t_ns, raw in reader.messages():
+            bag.span_ns = (reader.start_time, reader.end_time)
+            if kinds is not None:
+                wanted = [c for c in reader.connections if classify(c.topic)[0] in kinds]
+                scenes = [c for c in reader.connections if classify(c.topic)[0] == 'scene']
+                messages = itertools.chain(reader.messages(scenes),
+                                           reader.messages(wanted, start_ns, stop_ns)
+                                           if wanted else ())
+            else:
+                messages = reader.messages()
+            for connection, t_ns, raw in messages:
                 kind, joint = classify(connection.topic)
                 message = _Message(kind, connection.topic, t_ns, bytes(raw), connection.msgtype,
                                    joint)
@@ -150,6 +164,33 @@ def read_bag(path) -> RecordedBag:
         raise ReplayError(f'{path}: not a readable rosbag2 bag ({type(exc).__name__}: '
                           f'{exc})') from None
     return bag
+
+
+def _check_bag_path(path: Path) -> None:
+    """ReplayError saying why ``path`` is no bag to read: missing, an empty directory, a
+    directory with split files but no metadata.yaml, or one split of a bag of several (whose
+    other splits hold the rest of the run)."""
+    if not path.exists():
+        raise ReplayError(f'{path}: no such file or directory')
+    if path.is_dir() and not (path / 'metadata.yaml').is_file():
+        inside = list(path.iterdir())
+        if not inside:
+            raise ReplayError(f'{path}: an empty directory: no bag in it')
+        if any(p.suffix in ('.mcap', '.db3') and p.stem.startswith(f'{path.name}_')
+               for p in inside):
+            raise ReplayError(f'{path}: split files but no metadata.yaml (a recording killed '
+                              'before it listed its first split?): not a bag rosbags can read')
+    metadata = path.parent / 'metadata.yaml'
+    if path.is_file() and metadata.is_file():
+        try:
+            info = yaml.safe_load(metadata.read_text())['rosbag2_bagfile_information']
+            splits = info['relative_file_paths']
+        except (OSError, yaml.YAMLError, KeyError, TypeError):
+            return
+        if len(splits) > 1 and path.name in splits:
+            raise ReplayError(f'{path}: one of the {len(splits)} split files of the bag '
+                              f'{path.parent}: replay the bag directory (a split alone lacks '
+                              'the rest of the run)')
 
 
 def _scene_of(bag: RecordedBag, scene_path) -> Scene:
@@ -383,9 +424,7 @@ def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
 
 def main(args) -> int:
     """``affine-joint-sim replay``: exit 0 within --tol, 1 above, 2 on errors."""
-    import warp as wp
-
-    wp.config.log_level = wp.LOG_WARNING
+    quiet_warp()
     try:
         bag = read_bag(args.bag)
         if Path(args.bag).is_dir():

@@ -12,6 +12,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.signals import SignalHandlerOptions
 
+from affine_joint_sim.quiet_warp import quiet_warp
 from affine_joint_sim.ros.node import SimNode
 from affine_joint_sim.ros.parameters import ConfigError
 from affine_joint_sim.scene import SceneError
@@ -30,9 +31,7 @@ def main(args=None, parameter_overrides=None) -> int:
 
     Returns the exit status: 0, or 2 for an invalid parameter or scene (one line on stderr).
     """
-    import warp as wp
-
-    wp.config.log_level = wp.LOG_WARNING    # the node reports through ROS logging and its summary
+    quiet_warp()                 # the node reports through ROS logging and its summary
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     except _rclpy.UnknownROSArgsError as exc:
@@ -84,6 +83,13 @@ def print_summary(summary: dict) -> None:
         '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else '') + (
         f'; {surplus} lockstep answers beyond lockstep_publishers (applied to the state they '
         'answered, not to the next)' if surplus else ''))
+    problems = summary['problems']
+    rejected = problems['non_finite'] + problems['angle_aliased']
+    if rejected or problems['not_converged']:
+        print(f'steps not converged: {problems["not_converged"]}; steps rejected: {rejected} '
+              f'({problems["non_finite"]} non-finite, {problems["angle_aliased"]} a joint turned '
+              'over 0.9π)' + (': every step was rejected, nothing moved'
+                              if rejected >= summary['steps'] > 0 else ''))
     print(f'largest ‖AAᵀ − I‖ of a moving body at the end: {summary["rotation_strain"]:.2g} '
           '(stats rotation_strain; viewers draw the nearest rotation)')
     if summary['bag']:

@@ -21,9 +21,10 @@ What becomes what:
 
 import math
 import warnings
+from typing import Annotated
 
 import numpy as np
-from pydantic import ValidationError
+from pydantic import Field, ValidationError
 
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.physics.mass import inertia_mass_properties
@@ -53,6 +54,9 @@ class UrdfOptions(SceneSettings):
     fixed_base: bool = True
     merge_fixed: bool = True
     initial_positions: dict[str, Number] = {}
+    # kg: a moving body lighter than this (a massless intermediate link) gets this mass, as
+    # MuJoCo's boundmass does; 0 leaves masses as the URDF gives them
+    min_mass: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
     package_paths: dict[str, str] = {}
     joints: dict[str, dict] = {}
 
@@ -80,10 +84,11 @@ class _Converter:
 
     def __init__(self, robot, options: UrdfOptions, path):
         self.robot, self.options, self.path = robot, options, path
+        self._starts: dict[str, float] = {}       # joint name -> coordinate at t = 0
         self._implicit_world()
         self.links = {link.name: link for link in robot.links}
         self._check_names()
-        self._check_numbers()
+        self._check_masses()
         self.joint_of = {joint.child: joint for joint in robot.joints}   # child link → joint
         self.root = self._root()
         self.order = self._tree_order()
@@ -103,22 +108,11 @@ class _Converter:
             _warn(f"{self.path}: link 'world' is not defined but a joint's parent: taken as "
                   'the world (a massless root link)')
 
-    def _check_numbers(self) -> None:
-        """Every pose, axis, mass and inertia is finite; masses are not negative."""
-        for joint in self.robot.joints:
-            for what, value in (('<origin>', joint.origin), ('<axis>', joint.axis)):
-                if value is not None and not np.all(np.isfinite(np.asarray(value, float))):
-                    self._fail(f'joint {joint.name!r}: {what} has a non-finite number')
+    def _check_masses(self) -> None:
+        """Masses are not negative (read.py checked that every number is finite)."""
         for link in self.robot.links:
             inertial = link.inertial
-            if inertial is None:
-                continue
-            for what, value in (('<origin>', inertial.origin), ('<mass>', inertial.mass),
-                                ('<inertia>', inertial.inertia)):
-                if value is not None and not np.all(np.isfinite(np.asarray(value, float))):
-                    self._fail(f'link {link.name!r}: its inertial {what} has a non-finite '
-                               'number')
-            if inertial.mass is not None and inertial.mass < 0.0:
+            if inertial is not None and inertial.mass is not None and inertial.mass < 0.0:
                 self._fail(f'link {link.name!r}: negative mass ({inertial.mass:g} kg)')
 
     def _check_names(self) -> None:
@@ -174,8 +168,43 @@ class _Converter:
         return order
 
     def _joint_position(self, joint) -> float:
-        value = self.options.initial_positions.get(joint.name, 0.0)
-        return float(value)
+        """The joint's coordinate at t = 0 [rad | m]: its ``initial_positions`` entry (refused
+        outside the joint's limits: a limit entered that deep rejects every step), else 0,
+        else (a robot whose zero position is outside its limits, as some exports are) its
+        nearest limit, said once."""
+        if joint.name in self._starts:
+            return self._starts[joint.name]
+        bounds = self._start_bounds(joint)
+        unit = 'm' if joint.type == 'prismatic' else 'rad'
+        if joint.name in self.options.initial_positions:
+            start = float(self.options.initial_positions[joint.name])
+            if bounds is not None and not bounds[0] <= start <= bounds[1]:
+                self._fail(f'initial_positions: {joint.name!r} = {start:g} {unit} is outside the '
+                           f'joint\'s limits [{bounds[0]:g}, {bounds[1]:g}] {unit}')
+        elif bounds is not None and not bounds[0] <= 0.0 <= bounds[1]:
+            start = bounds[0] if bounds[0] > 0.0 else bounds[1]
+            _warn(f'{self.path}: joint {joint.name!r} starts at its '
+                  f'{"lower" if start == bounds[0] else "upper"} limit {start:g} {unit}: its '
+                  f'zero position is outside its limits [{bounds[0]:g}, {bounds[1]:g}] (choose '
+                  'another start with initial_positions)')
+        else:
+            start = 0.0
+        self._starts[joint.name] = start
+        return start
+
+    def _start_bounds(self, joint) -> tuple[float, float] | None:
+        """The limits [lower, upper] the joint will have (an override's, else the URDF's), or
+        None when it has none."""
+        override = self.options.joints.get(joint.name, {})
+        if 'limit' in override:
+            limit = override['limit']
+            return None if not isinstance(limit, dict) else (float(limit.get('lower', 0.0)),
+                                                              float(limit.get('upper', 0.0)))
+        limit = joint.limit
+        if joint.type == 'continuous' or limit is None:
+            return None
+        bounds = float(limit.lower or 0.0), float(limit.upper or 0.0)   # URDF: missing is 0
+        return bounds if all(math.isfinite(b) for b in bounds) else None
 
     def _forward_kinematics(self) -> dict:
         """World pose (4×4) of every link at the initial joint positions; root at the origin."""
@@ -223,6 +252,10 @@ class _Converter:
             mass = inertia.mass if inertia.mass > 0.0 else total_moving_mass
             body = {'name': name, 'mass': max(mass, 1e-9), 'fixed': True}
         else:
+            if inertia.mass < self.options.min_mass:
+                _warn(f'{self.path}: link {name!r} weighs {inertia.mass:g} kg: given min_mass '
+                      f'{self.options.min_mass:g} kg')
+                inertia = LinkInertia(self.options.min_mass, inertia.com, inertia.inertia)
             if inertia.mass <= 0.0:
                 if name == self.root:
                     self._fail(f'link {name!r} is the root of a free-base robot (fixed_base: '
@@ -231,7 +264,8 @@ class _Converter:
                                'child already)')
                 self._fail(f'link {name!r} moves (joint {self.joint_of[name].name!r}) but has '
                            'no mass: give it an <inertial> with mass > 0 (links welded to it '
-                           'by fixed joints count)')
+                           'by fixed joints count), or set min_mass [kg] to give massless '
+                           'links that mass')
             moments, axes = principal_frame(inertia.inertia)
             try:
                 moments, change = physical_moments(inertia.mass, moments)
@@ -326,10 +360,11 @@ class _Converter:
         if lower > upper:
             self._fail(f'joint {joint.name!r}: <limit lower="{lower:g}"> is above '
                        f'upper="{upper:g}"')
-        start = self._joint_position(joint)
-        if not lower <= start <= upper:
-            _warn(f'{self.path}: joint {joint.name!r} starts at {start:g}, outside its limits '
-                  f'[{lower:g}, {upper:g}]: the limit pushes it back')
+        if lower == upper and None not in (getattr(limit, 'lower', None),
+                                           getattr(limit, 'upper', None)):
+            _warn(f'{self.path}: joint {joint.name!r} ({joint.type}) has lower = upper = '
+                  f'{lower:g}: its limit locks it there; free it with joints: {{{joint.name}: '
+                  '{limit: null}}, or make it continuous')
         return {'lower': lower, 'upper': upper}
 
     def _say_unmodelled(self, joint) -> None:
@@ -356,6 +391,10 @@ class _Converter:
             body, body_frames = self._body(name, links, fixed, moving_mass)
             bodies.append(body)
             frames += body_frames
+        if not self.options.fixed_base and any(self.options.gravity):
+            _warn(f'{self.path}: the robot floats (fixed_base: false) and nothing holds it: '
+                  'there is no ground or contact yet, so under gravity it falls without end '
+                  '(use fixed_base: true to weld its root link to the world)')
         joints = [self._joint(j) for j in self.robot.joints if not self._welded(j)]
         joints = self._overridden([j for j in joints if j is not None])
         options = self.options

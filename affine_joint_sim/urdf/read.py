@@ -12,6 +12,7 @@ the C library's sin and cos and BLAS, which round differently on other machines
 
 import io
 import logging
+import math
 
 import numpy as np
 from lxml import etree
@@ -101,8 +102,6 @@ def _check_elements(path, root) -> None:
     if root.tag != 'robot':
         raise SceneError(f'{path}: not a URDF: the root element is <{root.tag}>, expected '
                          '<robot>')
-    if root.find('link') is None:
-        raise SceneError(f'{path}: the robot has no <link>')
     for element in root.iter():
         for key, value in element.attrib.items():
             if '$(' in value or '${' in value:
@@ -112,6 +111,8 @@ def _check_elements(path, root) -> None:
     if any(isinstance(el.tag, str) and el.tag.startswith('{' + _XACRO) for el in root.iter()):
         raise SceneError(f'{path}: contains xacro macros: expand it first '
                          f'(xacro {path.name} > robot.urdf)')
+    if root.find('link') is None:
+        raise SceneError(f'{path}: the robot has no <link>')
     for element in root.iterchildren('link', 'joint'):
         where = f'{path}:{element.sourceline}: <{element.tag}>'
         if not element.get('name', '').strip():
@@ -127,6 +128,54 @@ def _check_elements(path, root) -> None:
             tag = element.find(side)
             if tag is None or not tag.get('link'):
                 raise SceneError(f'{where} needs <{side} link="..."/>')
+    _check_numbers(path, root)
+
+
+# The numeric attributes the simulator reads: (element path under <link> or <joint>, attribute,
+# how many numbers, required, whether ±inf is valid).
+_NUMBERS = {
+    'joint': [('origin', 'xyz', 3, False, False), ('origin', 'rpy', 3, False, False),
+              ('axis', 'xyz', 3, True, False), ('limit', 'lower', 1, False, True),
+              ('limit', 'upper', 1, False, True), ('limit', 'effort', 1, False, True),
+              ('limit', 'velocity', 1, False, True), ('dynamics', 'damping', 1, False, False),
+              ('dynamics', 'friction', 1, False, False)],
+    'link': [('inertial/origin', 'xyz', 3, False, False),
+             ('inertial/origin', 'rpy', 3, False, False),
+             ('inertial/mass', 'value', 1, True, False),
+             *[('inertial/inertia', key, 1, True, False)
+               for key in ('ixx', 'ixy', 'ixz', 'iyy', 'iyz', 'izz')],
+             ('visual/origin', 'xyz', 3, False, False), ('visual/origin', 'rpy', 3, False, False),
+             ('visual/geometry/box', 'size', 3, True, False),
+             ('visual/geometry/cylinder', 'radius', 1, True, False),
+             ('visual/geometry/cylinder', 'length', 1, True, False),
+             ('visual/geometry/sphere', 'radius', 1, True, False)],
+}
+
+
+def _check_numbers(path, root) -> None:
+    """Every numeric attribute the simulator reads is there when required and holds as many
+    finite numbers as it should (±inf only for limits); else one line naming the file, line,
+    element and its link or joint."""
+    for owner in root.iterchildren('link', 'joint'):
+        name = f'{owner.tag} {owner.get("name")!r}'
+        for where, key, count, required, infinite in _NUMBERS[owner.tag]:
+            for element in owner.findall(where):
+                value = element.get(key)
+                spot = f'{path}:{element.sourceline}: <{element.tag}> of {name}'
+                if value is None:
+                    if required:
+                        raise SceneError(f'{spot} needs {key}="..." ({count} number'
+                                         f'{"s" if count > 1 else ""})')
+                    continue
+                try:
+                    numbers = [float(v) for v in value.split()]
+                except ValueError:
+                    numbers = None
+                if numbers is None or len(numbers) != count or not all(
+                        math.isfinite(v) or (infinite and not math.isnan(v)) for v in numbers):
+                    kind = 'numbers' if count > 1 else 'number'
+                    raise SceneError(f'{spot}: {key}="{value}" must be {count} finite {kind}'
+                                     + (' (or ±inf)' if infinite else ''))
 
 
 def _parse(path, data: bytes):

@@ -3,8 +3,9 @@
 The bodies are drawn from the bag's ``body_poses`` (a URDF robot's link frames give its
 bodies' poses through the scene's frames); a bag recorded without them is re-simulated from
 its scene and commands (``ros.replay``). Shapes are shaded solids (a mesh whose file trimesh
-can load is drawn when it has at most ``MAX_MESH_FACES`` faces, else its fallback box); a side
-panel plots the joint coordinates and efforts with a cursor at the frame's time. A ``.gif``
+can load is drawn with at most ``MESH_FACES`` faces, decimated by vertex clustering when it has
+more); a side panel plots the joint coordinates and efforts over the frames' window with a
+cursor at the frame's time. A bag with body_poses is read only over that window. A ``.gif``
 (Pillow) or ``.mp4`` (imageio with ffmpeg) holds one frame every 1/fps s of bag time between
 ``--from`` and ``--to``; a ``.png`` is the frame at ``--from`` (default: the end). Plain
 matplotlib, no display.
@@ -23,7 +24,8 @@ from affine_joint_sim.viz.drawables import drawables
 
 __all__ = ['RenderError', 'Track', 'load_track', 'render', 'frame_times']
 
-MAX_MESH_FACES = 4000
+MESH_FACES = 400          # the most faces a mesh is drawn with (a frame's cost grows with them)
+_POSE_MARGIN = 1.0        # s before --from read too: the pose in force at the first frame
 _LIGHT = np.array([0.4, -0.5, 0.77])
 
 
@@ -43,6 +45,7 @@ class Track:
         joint_names: names in joint_states.
         positions, efforts: (m, n_joints) [rad | m], [N·m | N].
         resimulated: whether the poses came from re-simulating the bag.
+        span: the bag's first and last message time [s] (the track may hold less).
     """
 
     scene: object
@@ -53,15 +56,22 @@ class Track:
     positions: np.ndarray
     efforts: np.ndarray
     resimulated: bool
+    span: tuple[float, float]
 
 
-def load_track(path) -> Track:
-    """Read a bag's poses (re-simulating it when it has none) and joint states."""
+def load_track(path, start: float | None = None, stop: float | None = None) -> Track:
+    """A bag's poses and joint states: from ``body_poses`` read between bag times ``start``
+    and ``stop`` [s] (default: the whole bag; one second before ``start`` too, for the pose in
+    force there), or, for a bag without them, re-simulated from its beginning."""
     from affine_joint_sim.ros.replay import ReplayError, _scene_of, read_bag, replay
     from affine_joint_sim.scene import SceneError
 
+    window = (None if start is None else max(int((start - _POSE_MARGIN) * 1e9), 0),
+              None if stop is None else int(stop * 1e9) + 1)
     try:
-        bag = read_bag(path)
+        bag = read_bag(path, ('joint_states', 'body_poses'), *window)
+        if not any(m.kind == 'body_poses' for m in bag.messages):
+            bag = read_bag(path)                 # re-simulated: every command is needed
         if bag.scene_yaml is None:
             raise RenderError(f'{path}: the bag holds no scene (~/scene): empty, or not '
                               'recorded by the affine_joint_sim node')
@@ -86,7 +96,19 @@ def load_track(path) -> Track:
         bodies = np.array([b for _, b in samples])
     return Track(scene, pose_times, bodies, np.array([t for t, _ in states]) * 1e-9,
                  list(states[-1][1].name), _column(states, 'position'),
-                 _column(states, 'effort'), not poses)
+                 _column(states, 'effort'), not poses,
+                 (bag.span_ns[0] * 1e-9, bag.span_ns[1] * 1e-9))
+
+
+def _bag_end(path) -> float | None:
+    """The bag's last message time [s] (its index only), or None if it cannot be read (then
+    ``load_track`` says why)."""
+    from affine_joint_sim.ros.replay import ReplayError, read_bag
+
+    try:
+        return read_bag(path, kinds=()).span_ns[1] * 1e-9
+    except ReplayError:
+        return None
 
 
 def _column(states, field: str) -> np.ndarray:
@@ -119,9 +141,12 @@ def frame_times(track: Track, fps: float, start: float | None, stop: float | Non
                 single: bool) -> np.ndarray:
     """Bag times [s] of the frames: every 1/fps from ``start`` to ``stop`` (default: the
     whole bag); one frame (at ``start``, default the end) for a still picture."""
-    first, last = track.pose_times[0], track.pose_times[-1]
+    first, last = track.span
     if single:
-        return np.array([last if start is None else min(max(start, first), last)])
+        if start is not None and not first <= start <= last + 1e-9:
+            raise RenderError(f'--from {start:g} must be within the bag\'s time span '
+                              f'[{first:g}, {last:g}] s')
+        return np.array([last if start is None else min(start, last)])
     start = first if start is None else start
     stop = last if stop is None else stop
     if not first <= start < stop <= last + 1e-9:
@@ -163,13 +188,37 @@ def _mesh(item):
     try:
         import trimesh
         mesh = trimesh.load(item.mesh_path, force='mesh')
-        if 0 < len(mesh.faces) <= MAX_MESH_FACES:
-            return list(np.asarray(mesh.vertices)[np.asarray(mesh.faces)] * item.scale)
-        size = mesh.bounding_box.extents * item.scale
-        center = mesh.bounding_box.centroid * item.scale
-        return [f + center for f in _box(size)]
+        if len(mesh.faces) == 0:
+            raise ValueError('no faces')
+        return list(decimated(np.asarray(mesh.vertices, dtype=float),
+                              np.asarray(mesh.faces), MESH_FACES) * item.scale)
     except Exception:               # any file trimesh cannot read is drawn as a small box
         return _box(np.array([0.05, 0.05, 0.05]))
+
+
+def decimated(vertices: np.ndarray, faces: np.ndarray, most: int) -> np.ndarray:
+    """The triangles (k, 3, 3) of a mesh with at most ``most`` faces (at least a tetrahedron's
+    worth): vertices merged into the centroid of their cell of a grid, coarsened until few
+    enough faces are left (vertex clustering; the outline stays, small detail goes)."""
+    if len(faces) <= most:
+        return vertices[faces]
+    low = vertices.min(axis=0)
+    extent = max(float(np.ptp(vertices, axis=0).max()), 1e-12)
+    cells = 64
+    while True:
+        keys = np.minimum(((vertices - low) / extent * cells).astype(np.int64), cells - 1)
+        cell_ids, of_vertex = np.unique(keys, axis=0, return_inverse=True)
+        of_vertex = of_vertex.ravel()
+        centroids = np.zeros((len(cell_ids), 3))
+        np.add.at(centroids, of_vertex, vertices)
+        centroids /= np.bincount(of_vertex)[:, None]
+        merged = of_vertex[faces]
+        proper = (merged[:, 0] != merged[:, 1]) & (merged[:, 1] != merged[:, 2]) \
+            & (merged[:, 0] != merged[:, 2])
+        kept = np.unique(merged[proper], axis=0)
+        if len(kept) <= most or cells <= 2:
+            return centroids[kept]
+        cells //= 2
 
 
 def _polygons(scene) -> list:
@@ -186,9 +235,10 @@ def _polygons(scene) -> list:
 # ---- drawing ----------------------------------------------------------------------------------
 
 class _Figure:
-    """The 3-D view and the side panel; ``draw(t)`` renders the frame at bag time t."""
+    """The 3-D view and the side panel over ``window`` (first, last frame time [s]);
+    ``draw(t)`` renders the frame at bag time t."""
 
-    def __init__(self, track: Track, size, view):
+    def __init__(self, track: Track, size, view, window):
         import matplotlib
         matplotlib.use('Agg')
         import matplotlib.pyplot as plt
@@ -205,11 +255,14 @@ class _Figure:
         self._limits()
         self.title = self.fig.suptitle('', x=0.3, fontsize=11)
         self.cursors = []
+        shown = (track.state_times >= window[0] - 1e-9) & (track.state_times <= window[1] + 1e-9)
         for row, (values, label) in enumerate(((track.positions, 'position [rad | m]'),
                                                (track.efforts, 'effort [N·m | N]'))):
             ax = self.fig.add_subplot(grid[row, 1])
             for k, name in enumerate(track.joint_names):
-                ax.plot(track.state_times, values[:, k], lw=1.0, label=name)
+                ax.plot(track.state_times[shown], values[shown, k], lw=1.0, label=name)
+            if window[1] > window[0]:
+                ax.set_xlim(*window)
             ax.set_ylabel(label, fontsize=8)
             ax.tick_params(labelsize=7)
             self.cursors.append(ax.axvline(track.state_times[0], color='k', lw=0.8))
@@ -219,22 +272,35 @@ class _Figure:
         self.collections = []
 
     def _limits(self):
-        points = self.track.bodies[:, :, :3, 3].reshape(-1, 3)
+        """A cube that holds the whole run; or, for a robot that travels more than twice its
+        own size (a floating robot falling), a cube of its size that follows its bodies'
+        centre (``_follow``)."""
+        centres = self.track.bodies[:, :, :3, 3]                  # (samples, bodies, 3) [m]
         reach = max((np.abs(p).max() for _, _, polys, _ in self.shapes for p in polys),
                     default=0.1)
-        low, high = points.min(axis=0) - reach, points.max(axis=0) + reach
-        center, half = (low + high) / 2, max((high - low).max() / 2, 0.1)
-        for axis, c in zip('xyz', center):
-            getattr(self.ax, f'set_{axis}lim')(c - half, c + half)
+        size = (centres.max(axis=1) - centres.min(axis=1)).max() + 2 * reach
+        low = centres.reshape(-1, 3).min(axis=0) - reach
+        high = centres.reshape(-1, 3).max(axis=0) + reach
+        self.half = max(size / 2, 0.1)
+        self.follow = (high - low).max() > 2 * size
+        if not self.follow:
+            self.half = max((high - low).max() / 2, 0.1)
+            self._centre_on((low + high) / 2)
         self.ax.set_box_aspect((1, 1, 1))
         self.ax.set_xlabel('x [m]', fontsize=7)
         self.ax.set_ylabel('y [m]', fontsize=7)
         self.ax.set_zlabel('z [m]', fontsize=7)
         self.ax.tick_params(labelsize=6)
 
+    def _centre_on(self, centre) -> None:
+        for axis, c in zip('xyz', centre):
+            getattr(self.ax, f'set_{axis}lim')(c - self.half, c + self.half)
+
     def draw(self, t: float) -> np.ndarray:
         """The RGB image of the frame at bag time ``t`` [s]."""
         k = max(int(np.searchsorted(self.track.pose_times, t + 1e-9, side='right')) - 1, 0)
+        if self.follow:
+            self._centre_on(self.track.bodies[k, :, :3, 3].mean(axis=0))
         for collection in self.collections:
             collection.remove()
         self.collections = []
@@ -269,9 +335,15 @@ def render(path, out, fps: float = 15.0, size=(960, 540), view=(-60.0, 20.0),
     if not out.parent.is_dir():
         raise RenderError(f'--out {out}: no such directory {out.parent}')
     writer = _mp4_writer(out, fps) if kind == '.mp4' else None
-    track = load_track(path)
-    times = frame_times(track, fps, start, stop, single=kind == '.png')
-    figure = _Figure(track, size, view)
+    single = kind == '.png'
+    if single:                          # read about the one frame: at --from, else the end
+        at = start if start is not None else _bag_end(path)
+        track = load_track(path, at, at)
+    else:
+        track = load_track(path, start, stop)
+    times = frame_times(track, fps, start, stop, single=single)
+    first = max(float(times[0]) - _POSE_MARGIN, track.span[0]) if single else float(times[0])
+    figure = _Figure(track, size, view, (first, float(times[-1])))
     bar = Progress(len(times)) if progress else None
     images = []
     for t in times:
