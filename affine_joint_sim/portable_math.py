@@ -18,7 +18,7 @@ import numpy as np
 
 __all__ = ['SIN_COEFFICIENTS', 'COS_COEFFICIENTS', 'ATAN_COEFFICIENTS', 'HALF_PI',
            'TAN_PI_8', 'half_pi_parts', 'sin', 'cos', 'atan2', 'matmul', 'dot', 'norm',
-           'cross', 'symmetric_eigen']
+           'cross', 'cbrt', 'symmetric_eigen']
 
 # π to 100 digits: the splits of π/2 below need more bits than a float holds.
 _PI = Decimal('3.14159265358979323846264338327950288419716939937510582097494459230781640628620'
@@ -105,6 +105,21 @@ def atan2(y: float, x: float) -> float:
     if x < 0.0:
         angle = 2.0 * HALF_PI - angle
     return -angle if y < 0.0 else angle
+
+
+def cbrt(x: float) -> float:
+    """The real cube root of x (Newton's iteration on a mantissa in [1/8, 1); Python's
+    ``x ** (1/3)`` calls the C library's pow)."""
+    x = float(x)
+    if x == 0.0 or not math.isfinite(x):
+        return x
+    mantissa, exponent = math.frexp(abs(x))
+    while exponent % 3:                  # x = mantissa · 2^exponent, exponent a multiple of 3
+        mantissa, exponent = 0.5 * mantissa, exponent + 1
+    root = 0.5 + 0.5 * mantissa
+    for _ in range(8):
+        root = root - (root * root * root - mantissa) / (3.0 * root * root)
+    return math.copysign(math.ldexp(root, exponent // 3), x)
 
 
 def matmul(a, b) -> np.ndarray:

@@ -331,3 +331,10 @@ def test_a_directory_of_bags_names_a_bag_without_metadata_instead_of_skipping_it
     assert problems == [(str(tmp_path / 'killed'),
                          'split files but no metadata.yaml (a recording killed before it listed '
                          'its first split?): not a bag rosbags can read')]
+
+
+def test_a_killed_recording_with_only_scratch_splits_is_named_too(tmp_path):
+    """A recorder killed before it listed its first split leaves only its scratch splits."""
+    (tmp_path / 'killed' / '.split_0').mkdir(parents=True)
+    bags, problems = expand_bags([str(tmp_path)])
+    assert bags == [] and problems[0][0] == str(tmp_path / 'killed'), problems

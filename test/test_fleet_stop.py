@@ -15,8 +15,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parent.parent
 SAMPLES = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').exists())
-BAGS = 6000          # replay jobs, ~45 ms each on a worker: minutes of work to cancel
-JOBS = 2400          # sweep jobs of the large spec, ~0.1 s each: minutes of work to cancel
+BAGS = 6000          # replay jobs: minutes of work to cancel on two workers
+JOBS = 2400          # sweep jobs of the large spec: minutes of work to cancel
 STOP_WITHIN = 60.0   # s; running the queued jobs instead takes minutes
 GONE_WITHIN = 10.0   # s after the command ended, for its worker processes
 
@@ -92,7 +92,7 @@ def test_ctrl_c_stops_a_many_bag_replay_and_its_workers(tmp_path, many_bags):
 
 
 def large_spec(path: Path) -> Path:
-    """A sweep of JOBS jobs of ~0.1 s each: minutes on two workers."""
+    """A sweep of JOBS jobs: minutes on two workers."""
     dts = ', '.join(f'{0.0005 + 1e-6 * k:.6f}' for k in range(JOBS // 6))
     path.write_text(f'cases: [pendulum]\ndt: [{dts}]\nintegrator: [bdf1, bdf2]\n'
                     'newton_tol: [1.0e-4, 1.0e-6, 1.0e-8]\n')

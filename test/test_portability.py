@@ -6,7 +6,8 @@ OpenBLAS its kernels, and Warp compiles the step kernel for the host's instructi
 child process here is made to look like an old x86-64 on all four counts (glibc's hardware
 capabilities masked, NumPy's and OpenBLAS's dispatch pinned to their baseline, the kernels
 compiled for plain x86-64 without AVX or FMA) and must reproduce every packaged scene's
-regression trajectory and replay every sample bag bit for bit.
+regression trajectory, a scene that takes the model build's other paths, and replay every
+sample bag bit for bit.
 """
 
 import os
@@ -16,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 from numpy._core import _multiarray_umath
+
+from helpers.machine_results import odd_scene_trajectory
 
 TEST = Path(__file__).resolve().parent
 DATA = TEST / 'data' / 'regression.npz'
@@ -46,6 +49,7 @@ def test_an_old_x86_64_reproduces_every_trajectory_and_sample_bag_bit_for_bit(tm
     differing = {key: float(np.abs(old[key] - recorded[key]).max()) for key in recorded.files
                  if not np.array_equal(old[key], recorded[key])}
     assert not differing, f'largest differences on the old machine: {differing}'
+    np.testing.assert_array_equal(old['odd'], odd_scene_trajectory())
     bags = {key: float(old[key]) for key in old.files if key.startswith('bag:')}
     assert len(bags) >= 2
     assert all(worst == 0.0 for worst in bags.values()), bags

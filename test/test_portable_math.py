@@ -73,3 +73,11 @@ def test_symmetric_eigen_of_a_diagonal_tensor_keeps_the_axes():
     np.testing.assert_array_equal(values, [1.0, 2.0, 2.0])
     np.testing.assert_array_equal(np.abs(vectors), [[0, 1, 0], [1, 0, 0], [0, 0, 1]])
     assert np.linalg.det(vectors) == 1.0
+
+
+def test_cbrt_is_within_an_ulp_of_numpy_s():
+    rng = np.random.default_rng(3)
+    for x in np.concatenate([np.exp(rng.uniform(-40, 40, 3000)), [1.0, 8.0, 27.0, 1e-300]]):
+        assert _ulps(pm.cbrt(x), float(np.cbrt(x))) <= 1.0, x
+        assert pm.cbrt(-x) == -pm.cbrt(x)
+    assert pm.cbrt(0.0) == 0.0 and pm.cbrt(8.0) == 2.0

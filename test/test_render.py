@@ -119,8 +119,8 @@ def test_a_robot_that_falls_far_stays_in_frame(tmp_path):
 
 
 def test_a_large_mesh_is_drawn_decimated_keeping_its_outline():
-    """Before, a mesh under 4,000 faces was drawn face by face (Solo12: 9 s a frame) and one
-    over it as a box."""
+    """Before, a mesh under 4,000 faces was drawn face by face (a mesh robot took seconds a
+    frame) and one over it as a box."""
     import trimesh
 
     from affine_joint_sim.viz.render import MESH_FACES, decimated
@@ -134,7 +134,7 @@ def test_a_large_mesh_is_drawn_decimated_keeping_its_outline():
 
 
 def test_a_window_is_read_alone_from_a_bag_with_poses():
-    """Before, --from 2995 --to 3000 on a 3,000 s bag decoded all of it (105 s, 1.4 GB)."""
+    """Before, --from and --to near the end of a long bag decoded all of it first."""
     bag = Path(__file__).parents[1] / 'bags' / 'torque_step'
     whole, window = load_track(bag), load_track(bag, 2.0, 2.4)
     assert whole.state_times.min() == 0.0 and whole.state_times.max() >= 2.49

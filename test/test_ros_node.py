@@ -443,7 +443,7 @@ def test_the_summary_counts_rejected_steps_and_the_warning_says_what_to_change(t
     assert done.returncode == 0, done.stderr
     line = done.stdout.split('steps not converged: ')[1].split('\n')[0]
     unconverged = int(line.split(';')[0])
-    rejected = int(line.split('steps rejected: ')[1].split()[0])
+    rejected = int(line.split('with a joint turning over')[0].split()[-1])
     assert unconverged > 0 and rejected > 0, done.stdout
     assert 'drives far from their targets: shoulder' in done.stderr, done.stderr
 
@@ -456,16 +456,17 @@ def test_node_params_yaml_lists_every_parameter():
     assert set(listed['affine_joint_sim']['ros__parameters']) == set(PARAMETERS)
 
 
-def test_an_unknown_parameter_in_a_params_file_is_refused_naming_it(tmp_path):
-    """Before, a typo in a params file did nothing, silently."""
+def test_an_unknown_parameter_in_a_params_file_is_warned_about_naming_it(tmp_path):
+    """Before, a typo in a params file did nothing, silently. (Warned, not refused: a shared
+    params file may hold other nodes' parameters.)"""
     params = tmp_path / 'params.yaml'
     params.write_text('affine_joint_sim:\n  ros__parameters:\n    viz_rat: 5.0\n')
     done = subprocess.run([sys.executable, '-m', 'affine_joint_sim.cli', 'run', '--duration',
                            '0.05', '--mode', 'fast', '--ros-args', '--params-file', str(params)],
                           capture_output=True, text=True, timeout=60)
-    assert done.returncode == 2, done.stdout
-    assert "unknown parameter 'viz_rat' (from -p or --params-file; valid: scene," in done.stderr
-    assert 'Traceback' not in done.stderr
+    assert done.returncode == 0, done.stderr
+    assert "unknown parameter 'viz_rat' (from -p or --params-file) ignored; this node's " \
+        'parameters: scene,' in done.stderr, done.stderr
 
 
 def test_an_integer_set_at_run_time_keeps_a_float_parameter_a_float(sim, ros_node, wait_for):

@@ -156,3 +156,32 @@ def test_a_failure_in_the_writer_thread_stops_the_recording_once(tmp_path):
     assert not recording.active and 'No space left on device' in recording.stopped
     assert recorded(bag) == [0]
     assert not list(bag.glob('.split_*')) and not (bag / 'full_1.mcap').exists()
+
+
+def test_a_failed_metadata_write_names_the_split_the_bag_really_ends_at(tmp_path):
+    """Listing split 1 fails at metadata.yaml (a full disk): the error must name split 0, which
+    metadata.yaml lists, not split 1, which it does not (before, the index had already taken
+    split 1 in)."""
+    writes = itertools.count()
+
+    class MetadataFull(type(Path())):
+        def replace(self, target):
+            if str(target).endswith('metadata.yaml') and next(writes) == 1:
+                raise OSError(errno.ENOSPC, 'No space left on device', str(target))
+            return super().replace(target)
+
+    bag = MetadataFull(tmp_path / 'full')
+    errors = []
+    recording = RunRecording(BagRecorder(bag, 'mcap', TOPICS, split_seconds=0.0),
+                             errors.append, lambda message: None)
+    written = itertools.count()
+
+    def record_one():
+        k = next(written)
+        recording.write(STATES, k, state(k))
+        recording.flush_if_due()
+
+    assert wait_until(lambda: errors, record_one), 'listing split 1 should fail'
+    recording.close()
+    assert 'last closed split (full_0.mcap' in errors[0], errors[0]
+    assert recorded(bag) == [0]

@@ -17,12 +17,13 @@ def _is_bag(path: Path) -> bool:
 
 
 def _unlisted(path: Path) -> bool:
-    """A directory with split files named as its own (``NAME/NAME_0.mcap``) but no
-    metadata.yaml: a recording killed before it listed its first split, or copied without its
-    metadata (a directory of separate .mcap bags is not one)."""
+    """A directory with split files named as its own (``NAME/NAME_0.mcap``) or the recorder's
+    scratch splits (``.split_0/``) but no metadata.yaml: a recording killed before it listed
+    its first split, or copied without its metadata (a directory of separate .mcap bags is not
+    one)."""
     return path.is_dir() and not (path / 'metadata.yaml').is_file() and any(
-        p.suffix in ('.mcap', '.db3') and re.fullmatch(rf'{re.escape(path.name)}_\d+', p.stem)
-        for p in path.iterdir())
+        (p.suffix in ('.mcap', '.db3') and re.fullmatch(rf'{re.escape(path.name)}_\d+', p.stem))
+        or (p.is_dir() and re.fullmatch(r'\.split_\d+', p.name)) for p in path.iterdir())
 
 
 def holds_bags(path: Path) -> bool:

@@ -13,11 +13,12 @@ up, so that no worker outlives the command.
 """
 
 import multiprocessing
+import signal
 from dataclasses import dataclass
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
-from affine_joint_sim.fleet.stopping import ignore_interrupts
+from affine_joint_sim.fleet.stopping import SIGNALS, ignore_interrupts
 from affine_joint_sim.fleet.worker import run_job
 from affine_joint_sim.progress import print_above
 
@@ -130,8 +131,11 @@ def run_ray(function, jobs: list[dict], address: str, progress=None,
     is gone."""
     import ray
 
+    handlers = {number: signal.getsignal(number) for number in SIGNALS}
     ray.init(address=None if address == 'local' else address, include_dashboard=False,
              log_to_driver=False, ignore_reinit_error=True)
+    for number, handler in handlers.items():    # a local Ray head installs its own SIGTERM
+        signal.signal(number, handler)
     try:
         task = ray.remote(max_retries=RETRIES, retry_exceptions=False)(run_job)
         refs = [task.remote(function, job) for job in jobs]

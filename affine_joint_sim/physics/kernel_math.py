@@ -25,7 +25,7 @@ _NO_FUSION = '-target-feature -fma -target-feature -fma4'
 
 def kernel_options() -> dict:
     """Warp module options of every kernel module: Warp's CPU compiler flags (the global
-    setting, ``-march=native`` by default) without FMA."""
+    setting: by default ``-march=native`` and its inlining and SLP options) without FMA."""
     flags = wp.config.cpu_compiler_flags
     flags = '-march=native' if flags is None else flags
     return {'cpu_compiler_flags': f'{flags} {_NO_FUSION}'.strip()}

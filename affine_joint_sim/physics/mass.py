@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 
+from affine_joint_sim import portable_math as pm
+
 __all__ = ['MassProperties', 'mass_properties', 'inertia_mass_properties',
            'body_mass_properties', 'second_moments', 'MIN_SIDE_RATIO', 'DENSITY_RANGE']
 
@@ -53,7 +55,7 @@ def mass_properties(shape, density: float | None = None, mass: float | None = No
         half = np.array([r, r, h / 2.0])
     else:
         r = shape.sphere.radius
-        volume = 4.0 / 3.0 * math.pi * r ** 3
+        volume = 4.0 / 3.0 * math.pi * (r * r * r)
         unit_moment = np.full(3, r * r / 5.0)
         half = np.full(3, r)
     m = mass if mass is not None else density * volume
@@ -80,12 +82,12 @@ def inertia_mass_properties(mass: float, inertia) -> MassProperties:
     s = second_moments(inertia)
     sides = np.sqrt(12.0 * np.maximum(s, 0.0) / mass)
     sides = np.maximum(sides, MIN_SIDE_RATIO * sides.max())
-    volume = float(np.prod(sides))
+    volume = float(sides[0] * sides[1] * sides[2])
     light, dense = DENSITY_RANGE
     target = min(max(volume, mass / dense), mass / light)
     if target != volume:
-        sides = sides * (target / volume) ** (1.0 / 3.0) if volume > 0.0 else np.full(
-            3, target ** (1.0 / 3.0))
+        sides = sides * pm.cbrt(target / volume) if volume > 0.0 else np.full(
+            3, pm.cbrt(target))
     return MassProperties(mass, target, s, sides / 2.0)
 
 

@@ -304,7 +304,7 @@ def _resolves_turns(scene, second_moment, ortho_coeff) -> np.ndarray:
     well in float32; a light link on a heavy parent's hinge can therefore pass and still
     converge badly in float32 (the per-step warning then says so)."""
     eps = np.finfo(np.float32 if scene.solver.precision == 'float32' else np.float64).eps
-    stiffest = np.maximum(second_moment.max(axis=1), 8.0 * scene.dt ** 2 * ortho_coeff)
+    stiffest = np.maximum(second_moment.max(axis=1), 8.0 * (scene.dt * scene.dt) * ortho_coeff)
     return (second_moment.min(axis=1) > eps * stiffest).astype(np.int32)
 
 
@@ -345,7 +345,7 @@ def largest_step_efforts(model: HostModel) -> np.ndarray:
                 continue
             mass = model.body_mass[body]
             if command == 'force':
-                bound = mass * 2.0 * model.body_half_extent[body].max() / model.dt ** 2
+                bound = mass * 2.0 * model.body_half_extent[body].max() / (model.dt * model.dt)
             else:
                 p0 = getattr(model, f'joint_{side}_point0')[k]
                 axis = getattr(model, f'joint_{side}_point1')[k] - p0
@@ -353,6 +353,7 @@ def largest_step_efforts(model: HostModel) -> np.ndarray:
                 s = model.body_second_moment[body]
                 inertia_cm = s.sum() - pm.dot(s, axis ** 2)    # t̂ᵀ (tr(S) I − S) t̂
                 arm = -p0 - pm.dot(-p0, axis) * axis          # COM (rest origin) from the axis
-                bound = 0.9 * math.pi * (inertia_cm + mass * pm.dot(arm, arm)) / model.dt ** 2
+                bound = (0.9 * math.pi * (inertia_cm + mass * pm.dot(arm, arm))
+                         / (model.dt * model.dt))
             out[k] = min(out[k], bound)
     return out

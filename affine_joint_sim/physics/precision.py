@@ -43,4 +43,4 @@ def types_for(scalar) -> SimpleNamespace:
         # into NaN
         pivot_floor=scalar(max(1.0e-14, 16.0 * eps)),
         # ‖AAᵀ − I‖² of a rotation rounded to this precision stays below this
-        rigid_strain=scalar((16.0 * eps) ** 2))
+        rigid_strain=scalar((16.0 * eps) * (16.0 * eps)))

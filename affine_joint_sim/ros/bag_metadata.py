@@ -58,6 +58,7 @@ class BagIndex:
         self._start: int | None = None      # first message of the bag [ns]
         self._end = 0                       # last message of the bag [ns]
         self._entries: dict[str, list[str]] = {key: [] for key in _LISTS}
+        self._before: tuple | None = None   # what the last ``add`` changed, for ``retract``
 
     def add(self, info: dict, size: int) -> None:
         """List one closed split after the others.
@@ -68,6 +69,7 @@ class BagIndex:
             size: size of the split's file [B].
         """
         (entry,) = info['files']
+        self._before = (list(self._counts), self._start, self._end, self.bytes)
         if not self.names:
             self._constant = {key: info[key] for key in ('version', 'storage_identifier',
                                                           'compression_format',
@@ -84,6 +86,14 @@ class BagIndex:
         self._entries['relative_file_paths'].append(_entry('relative_file_paths', entry['path']))
         self.names.append(entry['path'])
         self.bytes += size
+
+    def retract(self) -> None:
+        """Undo the last ``add`` (its split could not be listed in metadata.yaml)."""
+        self._counts, self._start, self._end, self.bytes = self._before
+        for entries in self._entries.values():
+            entries.pop()
+        self.names.pop()
+        self._before = None
 
     def text(self) -> str:
         """metadata.yaml listing every split added so far (at least one)."""

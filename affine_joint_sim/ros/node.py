@@ -134,7 +134,7 @@ class SimNode(Node):
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
                          'command_joints': self.commands.array_joints})
-            self.recording.flush()      # metadata.yaml and the scene exist from now on
+            self.recording.flush()      # the scene's split goes to the writer thread to list
         except BaseException:       # e.g. SIGTERM now: the bag is still closed readable
             self.close_bag()
             raise
@@ -157,12 +157,14 @@ class SimNode(Node):
         read-only unless it may change while the node runs (rclpy refuses a change to it).
         Dynamic typing: ``-p duration:=5`` (an integer) is a valid float; ``check`` says what is
         valid for every parameter. A float given as an integer is declared a float; a name this
-        node does not know (a typo in a params file) is refused."""
+        node does not know (a typo in a params file) is warned about, not refused: a shared
+        params file (``/**:``) may hold other nodes' parameters."""
         overrides = self._parameter_overrides      # rclpy's: from -p and --params-file
         unknown = sorted(set(overrides) - set(PARAMETERS) - set(self._parameters))
         if unknown:
-            raise ConfigError(f'unknown parameter {", ".join(map(repr, unknown))} (from -p or '
-                              f'--params-file; valid: {", ".join(PARAMETERS)})')
+            self.get_logger().warning(
+                f'unknown parameter {", ".join(map(repr, unknown))} (from -p or --params-file) '
+                f'ignored; this node\'s parameters: {", ".join(PARAMETERS)}')
         for name, parameter in list(overrides.items()):
             overrides[name] = _as_declared_type(parameter)
         config = {}

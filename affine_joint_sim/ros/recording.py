@@ -4,6 +4,8 @@ said once with what the bag keeps, while the run goes on; a split that stays ope
 bag's writer thread is behind is said, not waited for. ROS-free.
 """
 
+import sqlite3
+
 __all__ = ['RunRecording']
 
 
@@ -67,7 +69,7 @@ class RunRecording:
             return
         try:
             action(self.recorder)
-        except OSError as exc:
+        except (OSError, sqlite3.Error) as exc:     # a full disk, as the storage says it
             recorder, self.recorder = self.recorder, None
             recorder.abandon()
             self._abandoned = recorder

@@ -176,8 +176,8 @@ def _check_bag_path(path: Path) -> None:
         inside = list(path.iterdir())
         if not inside:
             raise ReplayError(f'{path}: an empty directory: no bag in it')
-        if any(p.suffix in ('.mcap', '.db3') and p.stem.startswith(f'{path.name}_')
-               for p in inside):
+        if any((p.suffix in ('.mcap', '.db3') and p.stem.startswith(f'{path.name}_'))
+               or p.name.startswith('.split_') for p in inside):
             raise ReplayError(f'{path}: split files but no metadata.yaml (a recording killed '
                               'before it listed its first split?): not a bag rosbags can read')
     metadata = path.parent / 'metadata.yaml'
@@ -429,9 +429,10 @@ def main(args) -> int:
         bag = read_bag(args.bag)
         if Path(args.bag).is_dir():
             for leftover in sorted(Path(args.bag).glob('.split_*')):
-                print(f'note: {leftover.name} is the split the recorder was writing when it was '
-                      'killed: not part of the bag (metadata.yaml does not list it); delete it '
-                      'when you no longer need it', file=sys.stderr)
+                print(f'note: {leftover.name} is a split the recorder had not listed when it was '
+                      'killed (being written, opened ahead or being closed): not part of the '
+                      'bag (metadata.yaml does not list it); delete it when you no longer need '
+                      'it', file=sys.stderr)
         if args.publish:
             count = publish(bag, args.rate, args.namespace)
             print(f'published {count} commands from {bag.path}')

@@ -84,12 +84,12 @@ def print_summary(summary: dict) -> None:
         f'; {surplus} lockstep answers beyond lockstep_publishers (applied to the state they '
         'answered, not to the next)' if surplus else ''))
     problems = summary['problems']
-    rejected = problems['non_finite'] + problems['angle_aliased']
+    rejected = max(problems['non_finite'], problems['angle_aliased'])   # a step may have both
     if rejected or problems['not_converged']:
-        print(f'steps not converged: {problems["not_converged"]}; steps rejected: {rejected} '
-              f'({problems["non_finite"]} non-finite, {problems["angle_aliased"]} a joint turned '
-              'over 0.9π)' + (': every step was rejected, nothing moved'
-                              if rejected >= summary['steps'] > 0 else ''))
+        print(f'steps not converged: {problems["not_converged"]}; steps rejected: '
+              f'{problems["non_finite"]} non-finite, {problems["angle_aliased"]} with a joint '
+              'turning over 0.9π' + (': every step was rejected, nothing moved'
+                                     if rejected >= summary['steps'] > 0 else ''))
     print(f'largest ‖AAᵀ − I‖ of a moving body at the end: {summary["rotation_strain"]:.2g} '
           '(stats rotation_strain; viewers draw the nearest rotation)')
     if summary['bag']:

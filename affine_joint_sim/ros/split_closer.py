@@ -28,8 +28,12 @@ def list_split(path: Path, index: BagIndex, split: SplitWriter, name: str) -> No
     split.discard()                 # its scratch directory, now empty
     index.add(info, target.stat().st_size)
     scratch = path / 'metadata.yaml.tmp'
-    scratch.write_text(index.text())
-    scratch.replace(path / 'metadata.yaml')
+    try:
+        scratch.write_text(index.text())
+        scratch.replace(path / 'metadata.yaml')
+    except BaseException:
+        index.retract()             # not listed: the bag ends at the split listed before
+        raise
 
 
 class SplitCloser:

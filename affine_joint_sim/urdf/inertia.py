@@ -74,12 +74,12 @@ def physical_moments(mass: float, moments: np.ndarray) -> tuple[np.ndarray, str 
     if moments.min() < -1e-12 * max(1.0, moments.max()):
         raise ValueError(f'negative principal moment of inertia ({moments.min():.6g} kg·m²)')
     s = 0.5 * moments.sum() - moments
-    floor = max(MIN_MOMENT_RATIO * s.max(), mass * MIN_RADIUS ** 2)
+    floor = max(MIN_MOMENT_RATIO * s.max(), mass * (MIN_RADIUS * MIN_RADIUS))
     if s.min() >= floor:
         return moments, None
     fixed_s = np.maximum(s, floor)
     fixed = fixed_s.sum() - fixed_s
-    roundoff = 1e-9 * max(moments.max(), mass * MIN_RADIUS ** 2)
+    roundoff = 1e-9 * max(moments.max(), mass * (MIN_RADIUS * MIN_RADIUS))
     what = ('violates the triangle inequality (I_i > I_j + I_k)' if s.min() < -roundoff else
             'is (nearly) degenerate: a rotation without inertia')
     return fixed, (f'inertia {_fmt(moments)} {what}; using {_fmt(fixed)} kg·m² (second moments '
