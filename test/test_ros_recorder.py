@@ -135,11 +135,12 @@ def test_a_slow_split_close_holds_up_nothing_and_a_late_split_is_said_once(tmp_p
     assert not list(bag.glob('.split_*'))
 
 
-def test_a_failure_in_the_writer_thread_stops_the_recording_once(tmp_path):
-    bag = file_system(tmp_path / 'full', full_at='full_1.mcap')
-    errors, warnings = [], []
+def _recording_a_split_per_message(bag):
+    """(a RunRecording of ``bag`` that closes a split after every message, the errors it
+    reported, ``record_one()`` that records the next state and lets a split go)."""
+    errors = []
     recording = RunRecording(BagRecorder(bag, 'mcap', TOPICS, split_seconds=0.0),
-                             errors.append, warnings.append)
+                             errors.append, lambda message: None)
     written = itertools.count()
 
     def record_one():
@@ -147,6 +148,12 @@ def test_a_failure_in_the_writer_thread_stops_the_recording_once(tmp_path):
         recording.write(STATES, k, state(k))
         recording.flush_if_due()
 
+    return recording, errors, record_one
+
+
+def test_a_failure_in_the_writer_thread_stops_the_recording_once(tmp_path):
+    bag = file_system(tmp_path / 'full', full_at='full_1.mcap')
+    recording, errors, record_one = _recording_a_split_per_message(bag)
     assert wait_until(lambda: errors, record_one), 'moving split 1 should fail'
     for _ in range(10):
         record_one()                    # nothing more is recorded, nothing raised
@@ -170,17 +177,8 @@ def test_a_failed_metadata_write_names_the_split_the_bag_really_ends_at(tmp_path
                 raise OSError(errno.ENOSPC, 'No space left on device', str(target))
             return super().replace(target)
 
-    bag = MetadataFull(tmp_path / 'full')
-    errors = []
-    recording = RunRecording(BagRecorder(bag, 'mcap', TOPICS, split_seconds=0.0),
-                             errors.append, lambda message: None)
-    written = itertools.count()
-
-    def record_one():
-        k = next(written)
-        recording.write(STATES, k, state(k))
-        recording.flush_if_due()
-
+    recording, errors, record_one = _recording_a_split_per_message(MetadataFull(tmp_path / 'full'))
+    bag = recording.recorder.path
     assert wait_until(lambda: errors, record_one), 'listing split 1 should fail'
     recording.close()
     assert 'last closed split (full_0.mcap' in errors[0], errors[0]
