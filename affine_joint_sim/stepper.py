@@ -78,6 +78,11 @@ class Stepper:
         self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision))
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
+        # a joint's index by name, and the joints that take a command: a control loop sets
+        # torques by name every step, so these are looked up, not searched
+        self._index_of = {joint.name: k for k, joint in enumerate(scene.joints)}
+        self._commanded = np.array([k for k, j in enumerate(scene.joints)
+                                    if joint_kind(j.type).command is not None], dtype=np.intp)
         self._links = LinkFrames(scene)
         self._allocate()
         self.reset()
@@ -139,8 +144,7 @@ class Stepper:
     @property
     def command_joint_index(self) -> np.ndarray:
         """Scene indices of ``command_joint_names`` (to select them from per-joint arrays)."""
-        return np.array([k for k, j in enumerate(self.scene.joints)
-                         if joint_kind(j.type).command is not None], dtype=np.intp)
+        return self._commanded.copy()
 
     @property
     def drive_joint_names(self) -> list[str]:
@@ -172,6 +176,30 @@ class Stepper:
         self._torque[:, k] = tau
         self._uploads.written()
 
+    def set_torques(self, values) -> None:
+        """Set the torques [N·m] and forces [N] of every joint of ``command_joint_names`` at
+        once, in that order: ``values`` of shape (n,) (every environment) or (num_envs, n).
+        As ``set_torque``: held until changed, clamped to effort_limit with a warning, NaN/Inf
+        raise ValueError (and so does another shape)."""
+        index = self._commanded
+        tau = np.asarray(values, dtype=np.float64)
+        if tau.shape not in ((len(index),), (self._envs, len(index))):
+            raise ValueError(f'set_torques: expected shape ({len(index)},) or ({self._envs}, '
+                             f'{len(index)}) in command_joint_names order, got {tau.shape}')
+        bad = ~np.isfinite(tau).reshape(-1, len(index)).all(axis=0)
+        if bad.any():
+            raise ValueError('set_torques: torque must be finite for ' + ', '.join(
+                self.scene.joints[k].name for k in index[bad]))
+        limits = self._effort_limit[index]
+        over = (np.abs(tau) > limits).reshape(-1, len(index)).any(axis=0)
+        if over.any():
+            self._say('|torque| above effort_limit, clamped: ' + ', '.join(
+                f'{self.scene.joints[k].name} ({self._effort_limit[k]:g} N·m)'
+                for k in index[over]), stacklevel=3)
+            tau = np.clip(tau, -limits, limits)
+        self._torque[:, index] = tau
+        self._uploads.written()
+
     def set_enabled(self, name: str, enabled) -> None:
         """Enable (True) or disable joint ``name``'s torque (external_torque/is_constrained)."""
         k = self._movable(name)
@@ -183,7 +211,7 @@ class Stepper:
 
         ``value`` is a scalar or an array of shape (num_envs,); NaN/Inf raise ValueError, and
         so does a joint without a ``drive``."""
-        k = self.scene.joint_index(name)
+        k = self._joint(name)
         if self.scene.joints[k].drive is None:
             raise ValueError(f'joint {name!r} has no drive; joints with one: '
                              f'{", ".join(self.drive_joint_names) or "none"}')
@@ -195,7 +223,7 @@ class Stepper:
 
     def set_drive_enabled(self, name: str, enabled) -> None:
         """Switch joint ``name``'s drive on (True) or off (driving/is_constrained)."""
-        k = self.scene.joint_index(name)
+        k = self._joint(name)
         self._drive_enabled[:, k] = self._per_env(name, enabled, np.bool_)
         self._uploads.written()
 
@@ -468,9 +496,14 @@ class Stepper:
         else:
             warnings.warn(message, SimulationWarning, stacklevel=stacklevel)
 
+    def _joint(self, name) -> int:
+        """Joint ``name``'s index (KeyError naming the valid ones)."""
+        k = self._index_of.get(name)
+        return self.scene.joint_index(name) if k is None else k
+
     def _movable(self, name) -> int:
-        k = self.scene.joint_index(name)
-        if joint_kind(self.scene.joints[k].type).command is None:
+        k = self._joint(name)
+        if k not in self._commanded:
             raise ValueError(f'joint {name!r} is {self.scene.joints[k].type}: it takes no torque '
                              'or force')
         return k

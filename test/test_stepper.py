@@ -339,3 +339,28 @@ def test_largest_step_effort_turns_the_link_by_the_aliasing_limit_in_one_step():
         'joints': [{'name': 's', 'type': 'prismatic', 'parent': 'base', 'child': 'cube',
                     'x0': [0, 0, 0], 'x1': [1, 0, 0]}]})
     assert Stepper(prismatic).step_effort_bounds[0] == pytest.approx(2.0 * 0.3 / 0.01 ** 2)
+
+
+def test_set_torques_sets_every_command_joint_at_once_like_set_torque():
+    """An array in command_joint_names order, per environment or for all: the same bits as
+    setting each joint by name."""
+    scene = Scene.from_yaml(SCENES / 'gantry.yaml')
+    rng = np.random.default_rng(5)
+    by_name, at_once = Stepper(scene, num_envs=3), Stepper(scene, num_envs=3)
+    for _ in range(3):
+        values = rng.uniform(-2.0, 2.0, (3, len(by_name.command_joint_names)))
+        for k, name in enumerate(by_name.command_joint_names):
+            by_name.set_torque(name, values[:, k])
+        at_once.set_torques(values)
+        for sim in (by_name, at_once):
+            for _ in range(10):
+                sim.step()
+    assert np.array_equal(by_name.body_q, at_once.body_q)
+    at_once.set_torques(np.ones(len(at_once.command_joint_names)))     # every environment
+    at_once.step()
+    assert np.array_equal(at_once.efforts[:, at_once.command_joint_index],
+                          np.ones((3, len(at_once.command_joint_names))))
+    with pytest.raises(ValueError, match=r'expected shape \(2,\) or \(3, 2\)'):
+        at_once.set_torques([1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match='torque must be finite for rail'):
+        at_once.set_torques([math.nan, 0.0])
