@@ -2,13 +2,11 @@
 globs (quoted, so the shell leaves them) that match either."""
 
 import glob
-import re
 from pathlib import Path
 
-__all__ = ['expand_bags', 'holds_bags']
+from affine_joint_sim.ros.bag_metadata import UNLISTED_BAG, unlisted_bag
 
-_NO_METADATA = ('split files but no metadata.yaml (a recording killed before it listed its '
-                'first split?): not a bag rosbags can read')
+__all__ = ['expand_bags', 'holds_bags']
 
 
 def _is_bag(path: Path) -> bool:
@@ -16,19 +14,9 @@ def _is_bag(path: Path) -> bool:
         path.is_file() and path.suffix in ('.mcap', '.db3'))
 
 
-def _unlisted(path: Path) -> bool:
-    """A directory with split files named as its own (``NAME/NAME_0.mcap``) or the recorder's
-    scratch splits (``.split_0/``) but no metadata.yaml: a recording killed before it listed
-    its first split, or copied without its metadata (a directory of separate .mcap bags is not
-    one)."""
-    return path.is_dir() and not (path / 'metadata.yaml').is_file() and any(
-        (p.suffix in ('.mcap', '.db3') and re.fullmatch(rf'{re.escape(path.name)}_\d+', p.stem))
-        or (p.is_dir() and re.fullmatch(r'\.split_\d+', p.name)) for p in path.iterdir())
-
-
 def holds_bags(path: Path) -> bool:
     """A directory that is not a bag itself but has bags in it (``bags/``)."""
-    return path.is_dir() and not _is_bag(path) and not _unlisted(path) and any(
+    return path.is_dir() and not _is_bag(path) and not unlisted_bag(path) and any(
         _is_bag(p) for p in path.iterdir())
 
 
@@ -42,18 +30,17 @@ def expand_bags(args: list[str]) -> tuple[list[Path], list[tuple[str, str]]]:
     for arg in args:
         matches = [Path(p) for p in sorted(glob.glob(arg))] if glob.has_magic(arg) else [
             Path(arg)]
-        bags = []
+        bags, named = [], len(problems)
         for path in matches:
             if _is_bag(path):
                 bags.append(path)
-            elif _unlisted(path):
-                problems.append((str(path), _NO_METADATA))
+            elif unlisted_bag(path):
+                problems.append((str(path), UNLISTED_BAG))
             elif path.is_dir():
                 inside = sorted(path.iterdir())
                 bags += [p for p in inside if _is_bag(p)]
-                problems += [(str(p), _NO_METADATA) for p in inside if _unlisted(p)]
-        if not bags and not any(_unlisted(m) or (m.is_dir() and any(map(_unlisted, m.iterdir())))
-                                for m in matches):
+                problems += [(str(p), UNLISTED_BAG) for p in inside if unlisted_bag(p)]
+        if not bags and len(problems) == named:     # nothing found, nothing named yet
             problems.append((arg, _why_no_bag(matches)))
         found.update(dict.fromkeys(bags))
     return list(found), problems

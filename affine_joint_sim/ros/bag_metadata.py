@@ -10,9 +10,16 @@ the whole metadata gives (keys sorted, as rosbags writes them), byte for byte (t
 YAML goes through PyYAML's C emitter where PyYAML has libyaml, else through its Python one.
 """
 
+import re
+from pathlib import Path
+
 import yaml
 
-__all__ = ['BagIndex', 'dump_yaml']
+__all__ = ['BagIndex', 'dump_yaml', 'unlisted_bag', 'UNLISTED_BAG']
+
+# why a directory that ``unlisted_bag`` finds is no bag to read
+UNLISTED_BAG = ('split files but no metadata.yaml (a recording killed before it listed its '
+                'first split?): not a bag rosbags can read')
 
 _ROOT = 'rosbag2_bagfile_information'
 _LISTS = ('files', 'relative_file_paths')      # the keys that grow by one entry per split
@@ -120,3 +127,13 @@ class BagIndex:
         if run:
             parts.append(_nested(run))
         return ''.join(parts)
+
+
+def unlisted_bag(path: Path) -> bool:
+    """A directory with split files named as its own (``NAME/NAME_0.mcap``) or the recorder's
+    scratch splits (``.split_0/``) but no metadata.yaml: a recording killed before it listed
+    its first split, or copied without its metadata (a directory of separate .mcap bags is not
+    one)."""
+    return path.is_dir() and not (path / 'metadata.yaml').is_file() and any(
+        (p.suffix in ('.mcap', '.db3') and re.fullmatch(rf'{re.escape(path.name)}_\d+', p.stem))
+        or (p.is_dir() and re.fullmatch(r'\.split_\d+', p.name)) for p in path.iterdir())

@@ -446,14 +446,15 @@ class SimNode(Node):
         waited = self.gate.report_due()
         if waited is None:
             return
-        matched, names, mismatched = self._answer_publishers()
+        publishers = self._answer_publishers()
+        matched, names, mismatched = publishers
         why = (f'{matched} publisher(s) matched (nodes: {names}), ' if matched else
                'no publisher is matched, ') + (
             f'{self.gate.answers} of {self.gate.publishers} answers so far')
         self.get_logger().warning(
             f'lockstep: waiting {waited:.1f} s for an answer on {", ".join(self._answer_subs)} '
             f'to the state at t = {self.gate.stamp_ns * 1e-9:.6f} s: {why}{mismatched}')
-        self._check_publishers()
+        self._check_publishers(publishers)
 
     def _answer_publishers(self) -> tuple[int, str, str]:
         """(publishers matched on the answer topics, the nodes that publish there, and a note
@@ -476,12 +477,13 @@ class SimNode(Node):
     def _finished(self) -> bool:
         return self.loop.finished(self.config['duration'])
 
-    def _check_publishers(self):
+    def _check_publishers(self, publishers=None):
         """Lockstep: warn (once per count) when the matched controllers are more than the gate
         waits for (which of them drives a step then depends on timing) or, once some are
         matched, fewer (each step then waits for answers that do not come: it goes on only
-        when a controller answers the state the node republishes every 0.2 s)."""
-        count, names, mismatched = self._answer_publishers()
+        when a controller answers the state the node republishes every 0.2 s). ``publishers``:
+        ``_answer_publishers()`` if the caller has it already."""
+        count, names, mismatched = publishers or self._answer_publishers()
         expected = self.gate.publishers
         if count == expected or count == self._warned_publishers or (count == 0 and expected):
             return

@@ -26,6 +26,7 @@ from rosbags.rosbag2 import Reader
 
 from affine_joint_sim.quiet_warp import quiet_warp
 from affine_joint_sim.resources import scene_path as packaged_scene_path
+from affine_joint_sim.ros.bag_metadata import UNLISTED_BAG, unlisted_bag
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.lockstep import LockstepGate
@@ -172,14 +173,10 @@ def _check_bag_path(path: Path) -> None:
     other splits hold the rest of the run)."""
     if not path.exists():
         raise ReplayError(f'{path}: no such file or directory')
-    if path.is_dir() and not (path / 'metadata.yaml').is_file():
-        inside = list(path.iterdir())
-        if not inside:
-            raise ReplayError(f'{path}: an empty directory: no bag in it')
-        if any((p.suffix in ('.mcap', '.db3') and p.stem.startswith(f'{path.name}_'))
-               or p.name.startswith('.split_') for p in inside):
-            raise ReplayError(f'{path}: split files but no metadata.yaml (a recording killed '
-                              'before it listed its first split?): not a bag rosbags can read')
+    if path.is_dir() and not any(path.iterdir()):
+        raise ReplayError(f'{path}: an empty directory: no bag in it')
+    if unlisted_bag(path):
+        raise ReplayError(f'{path}: {UNLISTED_BAG}')
     metadata = path.parent / 'metadata.yaml'
     if path.is_file() and metadata.is_file():
         try:
