@@ -192,7 +192,8 @@ def test_a_parallel_sweep_writes_the_rows_of_a_serial_one(tmp_path, executor):
         pytest.importorskip('ray')
     serial, _ = sweep_rows(tmp_path, 'serial', '--workers', '1')
     rows, done = sweep_rows(tmp_path, 'parallel', *executor)
-    assert [(r['scene'], r['integrator'], float(r['dt'])) for r in rows] == [
+    ours = [r for r in rows if not r['integrator'].startswith('mujoco')]   # (compare extra)
+    assert [(r['scene'], r['integrator'], float(r['dt'])) for r in ours] == [
         (scene, integrator, dt) for scene in ('pendulum', 'double_pendulum[shoulder=1]')
         for integrator in ('bdf1', 'bdf2') for dt in (0.01, 0.005)]
     assert rows == serial                    # every figure but wall time, bit for bit

@@ -1,15 +1,18 @@
-"""Independent truth for the sweep: the scene as a rigid multibody tree, integrated by RK4.
+"""Independent truth for the sweep and the robot bench: the scene as a rigid multibody tree,
+integrated by RK4.
 
 Nothing here uses the stepper or its kernels: each body is rigid (inertia from the primitive's
-closed form, computed here), each joint is an exact hinge, each joint torque a couple about the
-hinge axis (child +, parent −), each joint's damping c a torque −c θ̇. The equations of motion
-M(θ) θ̈ + h(θ, θ̇) = τ − c θ̇ are assembled from
-body Jacobians: M = Σ m J_vᵀJ_v + J_ωᵀ I J_ω and h = Σ J_vᵀ m a⁰ + J_ωᵀ (I α⁰ + ω × Iω), where
-a⁰, α⁰ are the bodies' accelerations at θ̈ = 0 with the fixed bodies accelerating by −g (so h
-carries gravity). World frame, z up, SI units; θ_j is the right-hand rotation of joint j's child
-relative to its parent about x1 − x0, equal to the joint's ``initial_position`` at t = 0 (as the
-stepper reports it; every θ argument below is such an angle). Joint limits are not modelled:
-cases stay inside them.
+closed form, computed here), each revolute joint an exact hinge, each prismatic joint an exact
+slider; a joint's torque is a couple about the hinge axis (child +, parent −), a prismatic
+joint's force a pair of opposite forces along its axis, each joint's damping c a generalized
+force −c q̇. The equations of motion M(q) q̈ + h(q, q̇) = τ − c q̇ are assembled from body
+Jacobians: M = Σ m J_vᵀJ_v + J_ωᵀ I J_ω and h = Σ J_vᵀ m a⁰ + J_ωᵀ (I α⁰ + ω × Iω), where
+a⁰, α⁰ are the bodies' accelerations at q̈ = 0 with the fixed bodies accelerating by −g (so h
+carries gravity). World frame, z up, SI units; q_j is the right-hand rotation [rad] of joint
+j's child relative to its parent about x1 − x0 (revolute), or its displacement [m] along
+x1 − x0 (prismatic), equal to the joint's ``initial_position`` at t = 0 (as the stepper
+reports it; every θ argument below is such a coordinate). Joint limits are not modelled:
+cases stay inside them. Fixed joints are not modelled either (a URDF's are welded).
 """
 
 import math
@@ -73,6 +76,9 @@ class RigidTree:
         self.axis0 = np.array([np.subtract(j.x1, j.x0) / math.dist(j.x1, j.x0)
                                for j in scene.joints])
         self.point0 = np.array([j.x0 for j in scene.joints], dtype=float)
+        self.sliding = np.array([j.type == 'prismatic' for j in scene.joints], dtype=bool)
+        if any(j.type not in ('revolute', 'prismatic') for j in scene.joints):
+            raise ValueError('the rigid reference models revolute and prismatic joints only')
         self.damping = np.array([j.damping for j in scene.joints], dtype=float)
         self.offset = np.array([j.initial_position for j in scene.joints], dtype=float)
         self.order = self._joint_order()
@@ -118,22 +124,35 @@ class RigidTree:
             p, c = self.parent[j], self.child[j]
             axes[j] = disp_rot[p] @ self.axis0[j]
             points[j] = disp_rot[p] @ self.point0[j] + disp_t[p]
-            turn = axis_rotation(self.axis0[j], theta[j] - self.offset[j])
-            disp_rot[c] = disp_rot[p] @ turn
-            disp_t[c] = disp_rot[p] @ (self.point0[j] - turn @ self.point0[j]) + disp_t[p]
+            rate = axes[j] * omega[j]
+            if self.sliding[j]:
+                disp_rot[c] = disp_rot[p]
+                disp_t[c] = disp_t[p] + axes[j] * (theta[j] - self.offset[j])
+            else:
+                turn = axis_rotation(self.axis0[j], theta[j] - self.offset[j])
+                disp_rot[c] = disp_rot[p] @ turn
+                disp_t[c] = disp_rot[p] @ (self.point0[j] - turn @ self.point0[j]) + disp_t[p]
             com[c] = disp_rot[c] @ self.com0[c] + disp_t[c]
+            if self.sliding[j]:     # the child COM as a point of the parent, plus Coriolis
+                lever = com[c] - com[p]
+                w[c], alpha[c] = w[p], alpha[p]
+                acc[c] = (acc[p] + _cross(alpha[p], lever) + _cross(w[p], _cross(w[p], lever))
+                          + 2.0 * _cross(w[p], rate))
+                continue
             hinge_acc = acc[p] + _cross(alpha[p], points[j] - com[p]) + _cross(
                 w[p], _cross(w[p], points[j] - com[p]))
-            w[c] = w[p] + axes[j] * omega[j]
-            alpha[c] = alpha[p] + _cross(w[p], axes[j] * omega[j])
+            w[c] = w[p] + rate
+            alpha[c] = alpha[p] + _cross(w[p], rate)
             arm = com[c] - points[j]
             acc[c] = hinge_acc + _cross(alpha[c], arm) + _cross(w[c], _cross(w[c], arm))
         return disp_rot @ self.rotation0, com, axes, points, w, acc, alpha
 
     def _jacobians(self, com, axes, points):
-        """J_ω, J_v of every body's COM: (nb, 3, nj) each."""
-        jw = self.ancestors[:, None, :] * axes.T[None]
+        """J_ω, J_v of every body's COM: (nb, 3, nj) each (a slider turns nothing and moves
+        every body below it along its axis)."""
+        jw = self.ancestors[:, None, :] * np.where(self.sliding[:, None], 0.0, axes).T[None]
         jv = np.cross(axes[None, :, :], com[:, None, :] - points[None, :, :])   # (nb, nj, 3)
+        jv = np.where(self.sliding[None, :, None], axes[None], jv)
         return jw, self.ancestors[:, None, :] * np.swapaxes(jv, 1, 2)
 
     def _mass_matrix(self, rot, com, axes, points) -> np.ndarray:
@@ -169,11 +188,11 @@ class RigidTree:
         return float(kinetic - np.sum((self.mass * (com @ self.gravity))[~self.fixed]))
 
     def simulate(self, torques, times, step: float = 1e-3):
-        """Joint angles [rad] (from the initial positions) and velocities [rad/s] at ``times``
+        """Joint coordinates [rad | m] (from the initial positions) and velocities at ``times``
         [s] under constant torques.
 
         Args:
-            torques: τ per joint [N·m], couples about each hinge.
+            torques: τ per joint [N·m | N], couples about each hinge, forces along each slider.
             times: increasing sample times, multiples of ``step``.
             step: RK4 step [s].
 
@@ -204,7 +223,7 @@ class RigidTree:
     def _check_couples(self, torques):
         """A lever_arm torque is the couple modelled here only on a fixed parent, COM off axis."""
         for j, joint in enumerate(self.scene.joints):
-            if torques[j] == 0.0 or joint.torque_model != 'lever_arm':
+            if torques[j] == 0.0 or self.sliding[j] or joint.torque_model != 'lever_arm':
                 continue
             c = self.child[j]
             off_axis = np.cross(self.axis0[j], self.com0[c] - self.point0[j])

@@ -1,4 +1,4 @@
-"""Affine kinematics and the mass matrix: world points, Jacobians, M x.
+"""Affine kinematics and the mass matrix: world points, Jacobians, M x, a couple's acceleration.
 
 q = [p, a1, a2, a3] (rows a_r of A), world frame; the rest frame of a body is centred at its
 centre of mass, so M = blockdiag(m I3, S, S, S) with S = diag(s) [kg, kg·m^2]
@@ -15,7 +15,7 @@ __all__ = ['build']
 def build(t) -> SimpleNamespace:
     """Warp functions of affine kinematics for the types namespace ``t``."""
     vec3, mat33, vec12, mat12, scalar = t.vec3, t.mat33, t.vec12, t.mat12, t.scalar
-    zero = t.zero
+    zero, half = t.zero, t.half
 
     @wp.func
     def affine(q: vec12):
@@ -52,6 +52,25 @@ def build(t) -> SimpleNamespace:
         return affine_part(wp.outer(f, u_bar))
 
     @wp.func
+    def couple_acceleration(a: mat33, e: vec3, tau: scalar, s: vec3):
+        """The affine acceleration of a couple τ ê [N·m] (world; ê need not be a unit
+        vector): the generalized force (τ/2)[ê]× A⁻ᵀ mapped by S⁻¹, whose virtual work on a
+        spin δω is τ ê·δω (docs/physics.md#revolute-torque).
+
+        Returns (acceleration 12-vector, 1) or (zero, 0) when A is near-singular (the guard).
+        """
+        rows = wp.length(vec3(a[0, 0], a[0, 1], a[0, 2])) * wp.length(
+            vec3(a[1, 0], a[1, 1], a[1, 2])) * wp.length(vec3(a[2, 0], a[2, 1], a[2, 2]))
+        if rows <= zero or wp.abs(wp.determinant(a)) < scalar(1.0e-6) * rows:
+            return vec12(), 0
+        f = half * tau * (wp.skew(e) @ wp.transpose(wp.inverse(a)))
+        acc = mat33()
+        for r in range(3):
+            for c in range(3):
+                acc[r, c] = f[r, c] / s[c]
+        return affine_part(acc), 1
+
+    @wp.func
     def svd(a: mat33):
         """(U, σ, V) with A = U diag(σ) Vᵀ (one 3×3 SVD)."""
         u = mat33()
@@ -81,4 +100,5 @@ def build(t) -> SimpleNamespace:
                            jacobian_transpose=jacobian_transpose,
                            translation_part=translation_part, affine_part=affine_part,
                            direction_jacobian_transpose=direction_jacobian_transpose,
-                           svd=svd, mass_times=mass_times, add_mass=add_mass)
+                           couple_acceleration=couple_acceleration, svd=svd,
+                           mass_times=mass_times, add_mass=add_mass)

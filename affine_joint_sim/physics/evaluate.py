@@ -34,7 +34,7 @@ def _probe_kernel(t):
     joint_raw_coordinate, joint_coordinate_gradients = (t.joint_raw_coordinate,
                                                         t.joint_coordinate_gradients)
     warm_start, moved, full_step = t.warm_start, t.moved, t.full_step
-    one = t.one
+    one, salt = t.one, t.source_salt
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def probe(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
@@ -42,6 +42,7 @@ def _probe_kernel(t):
               energy_out: wp.array(dtype=scalar), coordinate_out: wp.array(dtype=scalar),
               parent_gradient_out: wp.array(dtype=vec12),
               child_gradient_out: wp.array(dtype=vec12), q_out: wp.array(dtype=vec12)):
+        wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
         if which == ENERGY:
             energy_out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
         elif which == NEWTON_SYSTEM:

@@ -1,5 +1,6 @@
-"""The kernels' sin and atan2, and the CPU compile options that keep every kernel's rounding the
-same on every x86-64 machine (docs/physics.md#reproducibility).
+"""The kernels' sin and atan2, the CPU compile options that keep every kernel's rounding the
+same on every x86-64 machine (docs/physics.md#reproducibility), and the salt that ties a
+compiled kernel to the physics sources it was built from.
 
 Warp compiles CPU kernels for the host's instruction set and calls the C library for
 transcendental functions. Both vary between machines: the C library picks its sin and atan2
@@ -10,6 +11,8 @@ sin and atan2 are built from +, −, ×, ÷ and √ (the algorithms and coeffici
 host's vector width: vector lanes round exactly like scalars, so only fusion changed bits.
 """
 
+import hashlib
+from pathlib import Path
 from types import SimpleNamespace
 
 import warp as wp
@@ -17,7 +20,7 @@ import warp as wp
 from affine_joint_sim.portable_math import (ATAN_COEFFICIENTS, COS_COEFFICIENTS, HALF_PI,
                                             SIN_COEFFICIENTS, TAN_PI_8, half_pi_parts)
 
-__all__ = ['build', 'kernel_options']
+__all__ = ['build', 'kernel_options', 'source_salt']
 
 # LLVM target features that would let the compiler fuse a·b + c (FMA3 and AMD's FMA4).
 _NO_FUSION = '-target-feature -fma -target-feature -fma4'
@@ -31,8 +34,21 @@ def kernel_options() -> dict:
     return {'cpu_compiler_flags': f'{flags} {_NO_FUSION}'.strip()}
 
 
+def source_salt() -> int:
+    """A 28-bit digest of every source file of ``affine_joint_sim.physics``, for the kernels to
+    name (``wp.static(source_salt)``). Warp's module hash misses the functions a dispatcher
+    picks by ``wp.static`` inside a loop over types (it keys them by the expression's text), so
+    a changed joint type kept loading the kernel compiled before the change from Warp's cache;
+    with the salt, any change to the physics recompiles the kernels."""
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.rglob('*.py')):
+        digest.update(path.read_bytes())
+    return int(digest.hexdigest()[:7], 16)
+
+
 def build(t) -> SimpleNamespace:
-    """sin, atan2 and the kernel module options for the types namespace ``t``."""
+    """sin, atan2, the kernel module options and the source salt for the types namespace
+    ``t``."""
     scalar, zero, one, four = t.scalar, t.zero, t.one, t.four
     # π/2 in three parts whose products with the quadrant number are exact in this precision
     p1, p2, p3 = (scalar(p) for p in half_pi_parts(33 if scalar is wp.float64 else 12))
@@ -90,4 +106,5 @@ def build(t) -> SimpleNamespace:
                 angle = -angle
         return angle
 
-    return SimpleNamespace(sin=sin, atan2=atan2, kernel_options=kernel_options())
+    return SimpleNamespace(sin=sin, atan2=atan2, kernel_options=kernel_options(),
+                           source_salt=source_salt())

@@ -20,9 +20,11 @@ def build(t) -> SimpleNamespace:
                                       t.structs.Scratch)
     integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
     newton, finish, largest_gap, write_stats = t.newton, t.finish, t.largest_gap, t.write_stats
+    salt = t.source_salt
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def step(model: Model, state: State, control: Control, scratch: Scratch):
+        wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
         env = wp.tid()
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env)
         predict(model, state, scratch, env, bdf2, force_scale)

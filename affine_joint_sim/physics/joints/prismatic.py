@@ -5,7 +5,8 @@ each body, δ = c_C − c_P: energy K/2 (|δ × t_P|² + |δ × t_C|² + |n_P �
 The frame terms are linear in q (constant Hessian blocks from physics.model); the axis terms
 are not: their Hessian is the Gauss–Newton K Σ ∇C ∇Cᵀ (PSD; exact where the joint holds).
 Coordinate d(q) = ½ δ·(t_P + t_C) [m], positive when the child moves along x1 − x0. The force
-f [N] acts along the symmetrised axis ê = ½(t̂_P + t̂_C): +f ê on the child, −f ê on the parent.
+f [N] acts along the symmetrised axis ê = ½(t̂_P + t̂_C): +f ê on the child, −f ê on the parent,
+both at the child's anchor (docs/physics.md#prismatic-force).
 """
 
 from types import SimpleNamespace
@@ -19,11 +20,11 @@ __all__ = ['build', 'linear_pairs', 'nonlinear_residuals']
 def build(t) -> SimpleNamespace:
     """Warp functions of the prismatic joint for the types namespace ``t``."""
     vec3, vec12, mat12, scalar = t.vec3, t.vec12, t.mat12, t.scalar
-    half = t.half
+    half, one = t.half, t.one
     Model, Scratch = t.structs.Model, t.structs.Scratch
     affine, world_point, jacobian_transpose = t.affine, t.world_point, t.jacobian_transpose
     direction_jacobian_transpose = t.direction_jacobian_transpose
-    translation_part = t.translation_part
+    translation_part, couple_acceleration = t.translation_part, t.couple_acceleration
 
     @wp.func
     def frame(model: Model, qp: vec12, qc: vec12, k: int):
@@ -127,19 +128,30 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def apply_command(model: Model, qp: vec12, qc: vec12, scratch: Scratch, env: int, k: int,
                       force: scalar, scale: scalar):
-        """Add scale·a_ext of the axial force f [N] at the start-of-step state to q̃.
-        Returns 0 (a force is never dropped)."""
+        """Add scale·a_ext of the axial force f [N] at the start-of-step state to q̃: +f ê on
+        the child and −f ê on the parent, both at the child's anchor (each body: the force at
+        its centre of mass and its moment about it as a couple), so that the pair has no net
+        moment. Returns 1 if a near-singular body dropped its couple."""
         e_child = half * (wp.normalize(affine(qp) @ model.joint_parent_axis[k])
                           + wp.normalize(affine(qc) @ model.joint_child_axis[k]))
+        f_child = force * e_child
+        point = world_point(qc, model.joint_child_point0[k])
         bp = model.joint_parent[k]
         bc = model.joint_child[k]
+        dropped = int(0)
         if model.body_fixed[bp] == 0:
+            moment = wp.cross(point - vec3(qp[0], qp[1], qp[2]), -f_child)
+            acc, ok = couple_acceleration(affine(qp), moment, one, model.body_second_moment[bp])
             scratch.q_tilde[env, bp] += translation_part(
-                -force * (scale / model.body_mass[bp]) * e_child)
+                -f_child * (scale / model.body_mass[bp])) + scale * acc
+            dropped = dropped | (1 - ok)
         if model.body_fixed[bc] == 0:
+            moment = wp.cross(point - vec3(qc[0], qc[1], qc[2]), f_child)
+            acc, ok = couple_acceleration(affine(qc), moment, one, model.body_second_moment[bc])
             scratch.q_tilde[env, bc] += translation_part(
-                force * (scale / model.body_mass[bc]) * e_child)
-        return int(0)
+                f_child * (scale / model.body_mass[bc])) + scale * acc
+            dropped = dropped | (1 - ok)
+        return dropped
 
     return SimpleNamespace(energy=energy, gradients=gradients, state_blocks=state_blocks,
                            gap=gap, coordinate=coordinate,

@@ -18,11 +18,11 @@ __all__ = ['build', 'linear_pairs', 'nonlinear_residuals']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the revolute joint for the types namespace ``t``."""
-    vec3, mat33, vec12, mat12, scalar = t.vec3, t.mat33, t.vec12, t.mat12, t.scalar
-    zero, half = t.zero, t.half
+    vec3, vec12, mat12, scalar = t.vec3, t.vec12, t.mat12, t.scalar
+    half = t.half
     Model, Scratch = t.structs.Model, t.structs.Scratch
     affine, world_point, jacobian_transpose = t.affine, t.world_point, t.jacobian_transpose
-    translation_part, affine_part = t.translation_part, t.affine_part
+    translation_part, couple_acceleration = t.translation_part, t.couple_acceleration
     direction_jacobian_transpose = t.direction_jacobian_transpose
     atan2 = t.atan2
 
@@ -115,23 +115,6 @@ def build(t) -> SimpleNamespace:
         return vec3()
 
     @wp.func
-    def couple_acceleration(a: mat33, e: vec3, tau: scalar, s: vec3):
-        """The generalized force (τ/2)[ê]× A⁻ᵀ mapped by S⁻¹ to an affine acceleration.
-
-        Returns (acceleration 12-vector, 1) or (zero, 0) when A is near-singular (the guard).
-        """
-        rows = wp.length(vec3(a[0, 0], a[0, 1], a[0, 2])) * wp.length(
-            vec3(a[1, 0], a[1, 1], a[1, 2])) * wp.length(vec3(a[2, 0], a[2, 1], a[2, 2]))
-        if rows <= zero or wp.abs(wp.determinant(a)) < scalar(1.0e-6) * rows:
-            return vec12(), 0
-        f = half * tau * (wp.skew(e) @ wp.transpose(wp.inverse(a)))
-        acc = mat33()
-        for r in range(3):
-            for c in range(3):
-                acc[r, c] = f[r, c] / s[c]
-        return affine_part(acc), 1
-
-    @wp.func
     def apply_command(model: Model, qp: vec12, qc: vec12, scratch: Scratch, env: int, k: int,
                       tau: scalar, scale: scalar):
         """Add scale·a_ext of torque τ [N·m] at the start-of-step state to q̃ of both bodies.
@@ -168,8 +151,7 @@ def build(t) -> SimpleNamespace:
     return SimpleNamespace(energy=energy, gradients=gradients, state_blocks=state_blocks,
                            gap=gap, coordinate=coordinate,
                            coordinate_gradients=coordinate_gradients,
-                           apply_command=apply_command, lever_arm_force=lever_arm_force,
-                           couple_acceleration=couple_acceleration)
+                           apply_command=apply_command, lever_arm_force=lever_arm_force)
 
 
 def linear_pairs(point, direction) -> list:
