@@ -43,6 +43,7 @@ setup(
                  'ruff'],                                  # the linter `make test` runs first
         'compare': ['mujoco'],      # MuJoCo as a reference in `make bench` (optional)
         'reference': ['pin>=3,<5'],   # Pinocchio checks the URDF robots' reference (optional)
+        'zoo': ['example-robot-data>=4.3'],   # the public robots of `bench robots` (optional)
         'cluster': ['ray>=2.40,<3'],  # replay/sweep on a Ray cluster (optional)
     },
     entry_points={

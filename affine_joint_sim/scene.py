@@ -127,7 +127,7 @@ class Body(StrictModel):
     linear_velocity: Vec3 = (0.0, 0.0, 0.0)
     angular_velocity: Vec3 = (0.0, 0.0, 0.0)
     fixed: bool = False
-    kappa: PositiveFloat = 1.0e8
+    kappa: PositiveFloat | None = None    # Pa; None: from its joints' loads (physics.rigidity)
 
     @model_validator(mode='after')
     def _density_or_mass(self):
@@ -244,7 +244,7 @@ class Joint(StrictModel):
     child: str
     x0: Vec3 | None = None
     x1: Vec3 | None = None
-    strength_ratio: PositiveFloat = 100.0
+    strength_ratio: PositiveFloat = 1000.0    # K = strength_ratio (m_P + m_C) [kg]
     torque: Number = 0.0
     enabled: bool = True
     torque_model: Literal['lever_arm', 'generalized'] = 'lever_arm'

@@ -41,7 +41,7 @@ def test_defaults_and_exponent_without_sign():
     assert scene.dt == 0.01 and scene.gravity == (0.0, 0.0, -9.81)
     joint = scene.joints[0]
     assert (joint.strength_ratio, joint.torque_model, joint.angle_mode, joint.enabled) == (
-        100.0, 'lever_arm', 'wrapped', True)
+        1000.0, 'lever_arm', 'wrapped', True)
     assert joint.effort_limit == math.inf
     assert scene.solver.integrator == 'bdf2' and scene.solver.newton_tol == 1e-4
     assert (joint.type, joint.limit, joint.drive, joint.damping) == ('revolute', None, None, 0.0)

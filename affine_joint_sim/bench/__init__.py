@@ -14,7 +14,7 @@ from pathlib import Path
 
 __all__ = ['SECTIONS', 'add_arguments', 'main']
 
-SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop', 'record')
+SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop', 'record', 'robots')
 
 
 def _section(name: str):

@@ -17,6 +17,7 @@ from affine_joint_sim.physics.joint_kinds import JOINT_KINDS, joint_kind
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import body_mass_properties
+from affine_joint_sim.physics.rigidity import body_rigidity
 from affine_joint_sim.rotations import rotation_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning
 
@@ -99,7 +100,7 @@ def build_model(scene) -> HostModel:
         scene, fixed, joints)
     _warn_com_on_axis(scene, fixed, joints)
     second_moment = np.array([p.second_moment for p in props])
-    ortho_coeff = np.array([b.kappa * p.volume for b, p in zip(scene.bodies, props)])
+    ortho_coeff = body_rigidity(scene, props)
     resolves_turns = _resolves_turns(scene, second_moment, ortho_coeff)
     _warn_unresolved_turns(scene, fixed, resolves_turns)
 

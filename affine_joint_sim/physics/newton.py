@@ -215,14 +215,15 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def newton(model: Model, state: State, control: Control, scratch: Scratch, env: int,
                kinetic_scale: scalar, bdf2: int):
-        """Minimise E from q = q̃. Returns (iterations, halvings, line-search failures,
+        """Minimise E from q̃ without the commands' push (scratch.q_start, see ``predict``).
+        Returns (iterations, halvings, line-search failures,
         converged, residual [m/s]); the result is in state.q."""
         q = state.q
         n_free = model.elim_order.shape[0]
         dt = model.dt
         for k in range(n_free):
             b = model.elim_order[k]
-            q[env, b] = scratch.q_tilde[env, b]
+            q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
         for k in range(model.joint_parent.shape[0]):

@@ -2,7 +2,8 @@
 
 BDF1: q̃ = q_n + dt v_n + dt² a_g. BDF2: q̃ = 4/3 q_n − 1/3 q_{n−1} + 2dt/9 (4 v_n − v_{n−1})
 + 4/9 dt² a_g; it starts with one BDF1 step (the first, and the first after a reset). The
-joint commands are added afterwards by the command stage with the same force scale.
+joint commands are added afterwards by the command stage with the same force scale; the
+prediction without them is Newton's start (docs/physics.md#newton-start).
 """
 
 import math
@@ -42,7 +43,8 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def predict(model: Model, state: State, scratch: Scratch, env: int, bdf2: int,
                 force_scale: scalar):
-        """q_n and q̃ (with gravity) of every free body into scratch."""
+        """q_n and q̃ (with gravity) of every free body into scratch, and q̃ again into
+        scratch.q_start: Newton starts there, before the commands move q̃."""
         dt = model.dt
         gravity = vec12()
         if model.has_gravity != 0:
@@ -59,5 +61,6 @@ def build(t) -> SimpleNamespace:
                                            + force_scale * gravity)
             else:
                 scratch.q_tilde[env, b] = qn + dt * state.v[env, b] + force_scale * gravity
+            scratch.q_start[env, b] = scratch.q_tilde[env, b]
 
     return SimpleNamespace(integrator_scales=integrator_scales, predict=predict)

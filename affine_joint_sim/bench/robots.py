@@ -1,0 +1,187 @@
+"""``bench robots``: public robots side by side with MuJoCo, against a fine reference.
+
+Each robot of the zoo (``bench.zoo``: arms, a hand, a quadruped, humanoids from
+example-robot-data, the extra ``zoo``), or any URDF named on the command line, runs fixed-base
+from the same pose under the same constant torques (gravity compensation plus a push) for
+``duration`` seconds at each dt, in this project and, with the extra ``compare``, in MuJoCo
+(Euler and RK4, contacts off: ``bench.mujoco_urdf``). The reference is MuJoCo's RK4 at
+``reference_dt``. Per robot and dt: our µs per step and per control-loop step (set every
+torque, step, read the angles), Newton iterations, unconverged and rejected steps,
+line-search failures, joints that leave their limits where the reference does not, the real
+time factor, and the largest joint error over the run of ours, MuJoCo Euler and MuJoCo RK4.
+"""
+
+import sys
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from affine_joint_sim.bench.report import Column, markdown_row, markdown_table, publish
+
+__all__ = ['Settings', 'FULL', 'QUICK', 'measure_robot', 'run', 'add_parser']
+
+LIMIT_SLACK = 1e-6      # rad | m beyond a limit that counts as leaving it
+
+
+class Settings(NamedTuple):
+    dts: tuple          # s, the steps compared
+    duration: float     # s per run
+    repeats: int        # timed runs (median reported)
+    reference_dt: float  # s, MuJoCo RK4's step for the reference
+
+
+FULL = Settings((1e-3, 1e-2, 1e-4), 0.5, 5, 1e-5)
+QUICK = Settings((1e-3, 1e-2), 0.1, 1, 1e-4)
+TIMED_STEPS = 500       # steps per timed run at most (dt 1e-4 runs 5000 for the error)
+
+
+def _ours(scene, torques, steps: int, repeats: int) -> dict:
+    """Our run of ``steps`` steps: coordinates every step and the counts, then the timing."""
+    from affine_joint_sim.bench.timing import median_us
+    from affine_joint_sim.stepper import Stepper
+
+    sim = Stepper(scene)
+    order = {j.name: k for k, j in enumerate(scene.joints)}
+    command = np.array([torques[order[name]] for name in sim.command_joint_names])
+    sim.set_torques(command)
+    angles, iterations = [], 0
+    for _ in range(steps):
+        sim.step()
+        angles.append(sim.angles)
+        iterations += int(sim.stats['newton_iterations'])
+    totals = sim.problem_totals
+    timed = min(steps, TIMED_STEPS)
+
+    def restart():
+        sim.reset()
+        sim.set_torques(command)
+
+    def loop():
+        sim.set_torques(command)
+        sim.step()
+        return sim.angles
+
+    return {'angles': np.array(angles), 'newton_iterations': iterations / steps,
+            'unconverged': totals['not_converged'],
+            'rejected': totals['non_finite'] + totals['angle_aliased'],
+            'line_search_failures': totals['line_search_failures'],
+            'us_per_step': median_us(sim.step, timed, repeats, setup=restart),
+            'loop_us': median_us(loop, timed, repeats, setup=restart)}
+
+
+def _limit_exits(scene, ours: np.ndarray, reference: np.ndarray | None) -> int:
+    """Joints that leave their limits in ours where the reference stays inside them."""
+    lower = np.array([-np.inf if j.limit is None else j.limit.lower for j in scene.joints])
+    upper = np.array([np.inf if j.limit is None else j.limit.upper for j in scene.joints])
+
+    def outside(x):
+        return ((x < lower - LIMIT_SLACK) | (x > upper + LIMIT_SLACK)).any(axis=0)
+    inside = np.ones(len(lower), dtype=bool) if reference is None else ~outside(reference)
+    return int((outside(ours) & inside).sum())
+
+
+def measure_robot(name: str, settings: Settings) -> list[dict]:
+    """One row per dt of ``settings`` for robot ``name`` (a zoo name or a URDF path)."""
+    from affine_joint_sim.bench import mujoco_urdf, zoo
+
+    finest = min(settings.dts)
+    samples = round(settings.duration / finest)
+    scene, torques = zoo.load(name, finest)
+    peer = reference = None
+    if mujoco_urdf.available():
+        peer = mujoco_urdf.MujocoRobot(zoo.urdf_path(name), scene)
+        reference, _ = peer.run(torques, settings.reference_dt, 'rk4',
+                                round(settings.duration / settings.reference_dt),
+                                every=round(finest / settings.reference_dt))
+    rows = []
+    for dt in settings.dts:
+        scene, torques = zoo.load(name, dt)
+        steps = round(settings.duration / dt)
+        every = round(dt / finest)
+        truth = None if reference is None else reference[every - 1:samples:every]
+        ours = _ours(scene, torques, steps, settings.repeats)
+        row = {'robot': Path(name).stem, 'joints': len(scene.joints), 'dt': dt,
+               **{key: value for key, value in ours.items() if key != 'angles'},
+               'limit_exits': _limit_exits(scene, ours['angles'], truth),
+               'realtime': dt / (ours['us_per_step'] * 1e-6)}
+        if peer is not None:
+            row['error'] = float(np.abs(ours['angles'] - truth).max())
+            for integrator in ('euler', 'rk4'):
+                coordinates, us = peer.run(torques, dt, integrator, steps)
+                row[f'{integrator}_error'] = float(np.abs(coordinates - truth).max())
+                row[f'{integrator}_us'] = us
+            row['vs_euler'] = ours['us_per_step'] / row['euler_us']
+        rows.append(row)
+    return rows
+
+
+COLUMNS = [
+    Column('robot', 'robot'), Column('joints', 'joints'), Column('dt', 'dt [s]', '{:g}'),
+    Column('us_per_step', 'µs/step', '{:.0f}'), Column('loop_us', 'loop µs', '{:.0f}'),
+    Column('euler_us', 'MuJoCo Euler µs', '{:.1f}'), Column('rk4_us', 'RK4 µs', '{:.1f}'),
+    Column('vs_euler', '× Euler', '{:.1f}'),
+    Column('newton_iterations', 'Newton it.', '{:.2f}'),
+    Column('unconverged', 'unconverged'), Column('rejected', 'rejected'),
+    Column('line_search_failures', 'LS failures'), Column('limit_exits', 'limit exits'),
+    Column('realtime', '× real time', '{:.1f}'),
+    Column('error', 'max error ours', '{:.2e}'), Column('euler_error', 'Euler', '{:.2e}'),
+    Column('rk4_error', 'RK4', '{:.2e}')]
+
+
+def run(results: Path, devices: list[str], settings: Settings, names=()) -> None:
+    """Measure ``names`` (default: the whole zoo); print the rows as they come, write
+    robots.md and robots.csv."""
+    from affine_joint_sim.bench import mujoco_urdf, zoo
+
+    if not names and not zoo.installed():
+        print("bench robots skipped: the zoo's URDFs come from example-robot-data, the extra "
+              "'zoo' (.venv/bin/pip install -e '.[zoo]')")
+        return
+    names = list(names) or list(zoo.ROBOTS)
+    for name in names:
+        zoo.urdf_path(name)             # every name checked before the first long run
+    print(markdown_table([], COLUMNS))
+    rows = []
+    for name in names:
+        for row in measure_robot(name, settings):
+            print(markdown_row(row, COLUMNS), flush=True)
+            rows.append(row)
+    peer = ('' if mujoco_urdf.available() else
+            "MuJoCo is not installed (extra 'compare'): no peer, no reference, no errors.\n\n")
+    text = (f'## Robots: {settings.duration:g} s fixed-base, gravity compensation + '
+            f'{zoo.PUSH:g} rad/s² (m/s²) on every joint, from the same pose\n\n{peer}'
+            f'Reference: MuJoCo RK4 at dt {settings.reference_dt:g}; errors: largest |q − q_ref| '
+            'over every step and joint [rad | m]. µs: median of '
+            f'{settings.repeats} runs of up to {TIMED_STEPS} steps on one core; loop: '
+            'set_torques + step + angles.\n\n' + markdown_table(rows, COLUMNS) + '\n')
+    publish(results, 'robots', text, rows)
+
+
+def add_parser(sections) -> None:
+    parser = sections.add_parser(
+        'robots', help='public URDF robots beside MuJoCo against a fine reference',
+        description='Run the zoo (or the robots named: zoo names or URDF files) fixed-base '
+                    'from a pose inside their limits under gravity compensation plus a push, '
+                    'in this project and in MuJoCo; write robots.md and robots.csv into '
+                    '--results. The zoo needs the extra zoo, MuJoCo the extra compare.')
+    parser.add_argument('--quick', action='store_true',
+                        help=f'{QUICK.duration:g} s at dt {", ".join(map(str, QUICK.dts))}, '
+                             f'reference dt {QUICK.reference_dt:g}, one timed run')
+    parser.add_argument('robots', nargs='*', help='zoo names or URDF files (default: the zoo)')
+
+    def bench(args, devices) -> int:
+        from affine_joint_sim.bench import zoo
+        from affine_joint_sim.bench.zoo import ZooError
+
+        args.results.mkdir(parents=True, exist_ok=True)
+        try:
+            if not args.robots and not zoo.installed():
+                zoo.urdf_path(next(iter(zoo.ROBOTS)))     # says what to install
+            run(args.results, devices, QUICK if args.quick else FULL, args.robots)
+        except ZooError as exc:
+            print(f'error: {exc}', file=sys.stderr)
+            return 2
+        return 0
+
+    parser.set_defaults(bench_func=bench)
