@@ -37,10 +37,12 @@ class Uploads:
         self.views = {name: host.numpy() for name, (_, host) in self._pairs.items()}
         self.separate = separate
         self.pending = False
+        self.writes = 0             # calls of written(): readers cache what they derive
 
     def written(self) -> None:
         """A view was written: the next step uploads the commands (when they are separate)."""
         self.pending = self.separate
+        self.writes += 1
 
     def take(self) -> bool:
         """Whether this step must upload the commands (then they count as uploaded)."""

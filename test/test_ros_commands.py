@@ -8,7 +8,8 @@ from affine_joint_sim.ros.commands import CommandBuffer
 
 
 class FakeStepper:
-    """Records what the buffer writes (the Stepper's set_torque/set_enabled signature)."""
+    """Records what the buffer writes (the Stepper's set_torque/set_torques/set_enabled
+    signatures; the buffers here command joints 'a', 'b', 'c' in that order)."""
 
     def __init__(self):
         self.torque, self.enabled, self.target = {}, {}, {}
@@ -18,6 +19,9 @@ class FakeStepper:
 
     def set_torque(self, name, value):
         self.torque[name] = value
+
+    def set_torques(self, values):
+        self.torque.update(zip('abc', values.tolist()))
 
     def set_enabled(self, name, flag):
         self.enabled[name] = flag

@@ -24,6 +24,7 @@ _P = {name: i for i, name in enumerate(PROBLEM_COLUMNS)}
 def build(t) -> SimpleNamespace:
     """Warp functions of the commit stage for the types namespace ``t``."""
     scalar, zero, two, three, four = t.scalar, t.zero, t.two, t.three, t.four
+    affine = t.affine
     pi, two_pi = t.pi, t.two_pi
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
     joint_coordinate_step, joint_raw_coordinate = t.joint_coordinate_step, t.joint_raw_coordinate
@@ -33,7 +34,7 @@ def build(t) -> SimpleNamespace:
     s_failures, s_aliased, s_dropped = (_I['line_search_failures'], _I['angle_aliased'],
                                         _I['torque_dropped'])
     s_non_finite, s_rejected = _I['non_finite'], _I['step_rejected']
-    s_residual, s_gap = _F['residual'], _F['joint_gap']
+    s_residual, s_gap, s_strain = _F['residual'], _F['joint_gap'], _F['rotation_strain']
     p_any, p_not_converged, p_non_finite = _P['any'], _P['not_converged'], _P['non_finite']
     p_aliased, p_dropped, p_failures = (_P['angle_aliased'], _P['torque_dropped'],
                                         _P['line_search_failures'])
@@ -129,9 +130,19 @@ def build(t) -> SimpleNamespace:
         return gap
 
     @wp.func
+    def largest_strain(model: Model, state: State, env: int):
+        """Largest ‖AAᵀ − I‖_F over the free bodies [-]."""
+        strain = zero
+        for k in range(model.elim_order.shape[0]):
+            a = affine(state.q[env, model.elim_order[k]])
+            c = a @ wp.transpose(a) - wp.identity(n=3, dtype=scalar)
+            strain = wp.max(strain, wp.sqrt(wp.ddot(c, c)))
+        return strain
+
+    @wp.func
     def write_stats(state: State, env: int, iterations: int, halvings: int, converged: int,
                     failures: int, aliased: int, dropped: int, finite: int, rejected: int,
-                    residual: scalar, gap: scalar):
+                    residual: scalar, gap: scalar, strain: scalar):
         """The step's statistics, addressed by the names of physics.fields, and the
         environment counted in state.problem_counts under each problem it had (a rejected
         step's Newton status does not count: its state was not kept)."""
@@ -145,6 +156,7 @@ def build(t) -> SimpleNamespace:
         state.stats_int[env, s_rejected] = rejected
         state.stats_float[env, s_residual] = residual
         state.stats_float[env, s_gap] = gap
+        state.stats_float[env, s_strain] = strain
         not_converged = int(0)
         if converged == 0 and rejected == 0:
             not_converged = 1
@@ -161,4 +173,5 @@ def build(t) -> SimpleNamespace:
             any_problem = 1
         count_problem(state, p_any, any_problem)
 
-    return SimpleNamespace(finish=finish, largest_gap=largest_gap, write_stats=write_stats)
+    return SimpleNamespace(finish=finish, largest_gap=largest_gap,
+                           largest_strain=largest_strain, write_stats=write_stats)

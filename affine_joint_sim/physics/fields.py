@@ -38,7 +38,7 @@ def _fields(group, rows):
 STAT_INT_NAMES = ('newton_iterations', 'line_search_halvings', 'converged',
                   'line_search_failures', 'angle_aliased', 'torque_dropped', 'non_finite',
                   'step_rejected')
-STAT_FLOAT_NAMES = ('residual', 'joint_gap')
+STAT_FLOAT_NAMES = ('residual', 'joint_gap', 'rotation_strain')
 # The kinds of trouble a step reports (Stepper warns once per kind): state.problem_counts holds
 # per step the number of environments with each, after column 0, the number with any.
 PROBLEM_NAMES = ('not_converged', 'non_finite', 'angle_aliased', 'torque_dropped',
@@ -113,7 +113,7 @@ FIELDS = _fields('model', [
     ('joint_velocity', 'scalar', EJ, 'rad/s | m/s', 'Δx / dt of the last step'),
     ('joint_effort', 'scalar', EJ, 'N·m | N', 'torque or force applied in the last step'),
     ('stats_int', 'int32', ('env', 'stat_int'), '-', 'STAT_INT_NAMES of the last step'),
-    ('stats_float', 'scalar', ('env', 'stat_float'), 'm/s, m', 'STAT_FLOAT_NAMES'),
+    ('stats_float', 'scalar', ('env', 'stat_float'), 'm/s, m, -', 'STAT_FLOAT_NAMES'),
     ('problem_counts', 'int32', ('problem',), '-', 'environments of the last step with any and '
      'with each kind of PROBLEM_COLUMNS (zeroed before each step): what the host reads every '
      'step; the stats only for a kind it has not warned about yet'),

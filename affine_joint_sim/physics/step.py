@@ -19,7 +19,8 @@ def build(t) -> SimpleNamespace:
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
-    newton, finish, largest_gap, write_stats = t.newton, t.finish, t.largest_gap, t.write_stats
+    newton, finish, write_stats = t.newton, t.finish, t.write_stats
+    largest_gap, largest_strain = t.largest_gap, t.largest_strain
     salt = t.source_salt
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
@@ -35,6 +36,7 @@ def build(t) -> SimpleNamespace:
         if finite == 0:
             converged = 0
         write_stats(state, env, iterations, halvings, converged, failures, aliased, dropped,
-                    finite, rejected, residual, largest_gap(model, state, env))
+                    finite, rejected, residual, largest_gap(model, state, env),
+                    largest_strain(model, state, env))
 
     return SimpleNamespace(step=step)

@@ -171,9 +171,12 @@ class CommandBuffer:
 
         Returns one notice per joint whose torque just timed out (said once per silence).
         """
+        if len(self._torque) == len(self.joint_names):     # a whole array: one call
+            stepper.set_torques(np.array([self._torque[k] for k in range(len(self._torque))]))
+        else:
+            for k, value in self._torque.items():
+                stepper.set_torque(self.joint_names[k], value)
         for k, value in self._torque.items():
-            name = self.joint_names[k]
-            stepper.set_torque(name, value)
             self._last_command[k] = sim_time
             self._held[k] = value != 0.0
         for k, flag in self._enabled.items():
