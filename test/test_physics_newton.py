@@ -83,12 +83,13 @@ def test_a_tolerance_below_rounding_stops_at_the_rounding_floor(precision, tol):
     # newton_tol·dt below what the precision resolves at 6 m: Newton stops once its update
     # is rounding (16 ε of the chain's 6 m extent) instead of cycling to newton_max_iter
     # (before: float64 52, float32 100 of 100 steps unconverged), as accurate as a reachable
-    # tolerance
+    # tolerance (whose last update, from the previous iteration's factors, leaves 4.4e-7 rad
+    # after 100 steps of this chaotic chain in float64)
     floor, stats = _chain_run(100, precision=precision, newton_tol=tol)
     reachable, _ = _chain_run(100, precision=precision)
     assert all(s['converged'] for s in stats)
     assert np.mean([s['newton_iterations'] for s in stats]) < 8
-    assert np.abs(floor - reachable).max() < (1e-7 if precision == 'float64' else 2e-3)
+    assert np.abs(floor - reachable).max() < (1e-6 if precision == 'float64' else 2e-3)
 
 
 def _expm(m, terms=40):

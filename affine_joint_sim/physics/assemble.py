@@ -1,4 +1,5 @@
-"""Newton system of one environment: −∇E into scratch.rhs, diagonal blocks into scratch.hessian.
+"""Newton system of one environment: −∇E into scratch.rhs, diagonal blocks into scratch.hessian
+(or the gradient alone, for a solve with the factors of an earlier iteration).
 
 The diagonal blocks are kinetic_scale·M + dt² κ v̄ ∇²‖AAᵀ−I‖² (PSD-projected) + the joints'
 constant blocks. The coupling blocks of the tree are constant (model.elim_offdiag) unless the
@@ -47,17 +48,35 @@ def build(t) -> SimpleNamespace:
                 scratch.offdiag[env, slot] += h_pc
 
     @wp.func
+    def add_gradients(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
+                      g_child: vec12):
+        """Joint k's gradients into the rhs of its free bodies."""
+        bp = model.joint_parent[k]
+        bc = model.joint_child[k]
+        if model.body_fixed[bp] == 0:
+            scratch.rhs[env, bp] -= g_parent
+        if model.body_fixed[bc] == 0:
+            scratch.rhs[env, bc] -= g_child
+
+    @wp.func
     def add_state_blocks(model: Model, state: State, control: Control,
                          q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int,
-                         bdf2: int):
+                         bdf2: int, hessian: int):
         """Joint k's state-dependent blocks (prismatic axis terms) and its coordinate terms'
-        gradient and Gauss–Newton blocks, where they are not zero."""
-        h_pp, h_pc, h_cc, has = joint_state_blocks(model, q, env, k)
-        if has != 0:
-            add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
+        gradient and Gauss–Newton blocks, where they are not zero (the gradient alone
+        without ``hessian``)."""
+        if hessian != 0:
+            h_pp, h_pc, h_cc, has = joint_state_blocks(model, q, env, k)
+            if has != 0:
+                add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
         if model.joint_state_terms[k] != 0:
             x = joint_coordinate(model, q, state, env, k)
             e, d1, d2 = coordinate_terms(model, state, control, env, k, x, bdf2)
+            if hessian == 0:
+                if d1 != zero:
+                    x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
+                    add_gradients(model, scratch, env, k, d1 * x_parent, d1 * x_child)
+                return
             if model.joint_limit_strength[k] > zero:
                 depth, change = limit_secant(model, k, x, scratch.limit_depth[env, k])
                 scratch.limit_depth[env, k] = depth
@@ -70,9 +89,9 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def assemble(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
-                 scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int):
-        """rhs = −∇E(q), hessian = the diagonal blocks of ∇²E(q) of the free bodies (and
-        offdiag = their coupling blocks when the model has state_coupling)."""
+                 scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int, hessian: int):
+        """rhs = −∇E(q) and, with ``hessian``, hessian = the diagonal blocks of ∇²E(q) of the
+        free bodies (and offdiag = their coupling blocks when the model has state_coupling)."""
         dt2 = model.dt * model.dt
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
@@ -84,21 +103,17 @@ def build(t) -> SimpleNamespace:
             ortho = dt2 * model.body_ortho_coeff[b]
             scratch.rhs[env, b] = -(kinetic_scale * mass_times(m, s, qb - scratch.q_tilde[env, b])
                                     + ortho * ortho_gradient(a))
-            scratch.hessian[env, b] = add_ortho_hessian(
-                add_mass(model.body_joint_hessian[b], m, s, kinetic_scale), ortho, a)
-            if model.state_coupling != 0:
-                scratch.offdiag[env, b] = model.elim_offdiag[b]
+            if hessian != 0:
+                scratch.hessian[env, b] = add_ortho_hessian(
+                    add_mass(model.body_joint_hessian[b], m, s, kinetic_scale), ortho, a)
+                if model.state_coupling != 0:
+                    scratch.offdiag[env, b] = model.elim_offdiag[b]
         for k in range(model.joint_parent.shape[0]):
             if model.joint_has_free[k] == 0:
                 continue
             g_parent, g_child = joint_gradients(model, q, env, k)
-            bp = model.joint_parent[k]
-            bc = model.joint_child[k]
-            if model.body_fixed[bp] == 0:
-                scratch.rhs[env, bp] -= g_parent
-            if model.body_fixed[bc] == 0:
-                scratch.rhs[env, bc] -= g_child
+            add_gradients(model, scratch, env, k, g_parent, g_child)
             if model.state_coupling != 0:
-                add_state_blocks(model, state, control, q, scratch, env, k, bdf2)
+                add_state_blocks(model, state, control, q, scratch, env, k, bdf2, hessian)
 
     return SimpleNamespace(assemble=assemble)

@@ -46,7 +46,7 @@ def _probe_kernel(t):
         if which == ENERGY:
             energy_out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
         elif which == NEWTON_SYSTEM:
-            assemble(model, state, control, q, scratch, 0, one, 0)
+            assemble(model, state, control, q, scratch, 0, one, 0, 1)
             solve_tree(model, scratch, 0)
         elif which == COORDINATES:
             for k in range(model.joint_parent.shape[0]):

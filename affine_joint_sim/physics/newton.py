@@ -1,9 +1,11 @@
 """Newton's method on the incremental potential (docs/physics.md#newton-solver).
 
-From q̃ (with solver.warm_start, a body whose prediction added shear starts from the rotation
-of q̃ times the stretch of q_n: see ``warm_start``): assemble, tree-solve, test convergence on
-the fresh direction (largest box-corner displacement and largest affine entry ≤ newton_tol·dt,
-or ≤ their rounding floor where that is larger: see ``extent``), then a line search on E:
+From q̃ before the commands (with solver.warm_start, a body whose prediction added shear starts
+from the rotation of q̃ times the stretch of q_n: see ``warm_start``): assemble, tree-solve,
+test convergence on the direction (largest box-corner displacement and largest affine entry
+≤ newton_tol·dt, or ≤ their rounding floor where that is larger: see ``extent``; after the
+first iteration first on the direction of the last factors for the new gradient alone, which
+ends most steps without a second Hessian), then a line search on E:
 the full step with the bodies' turns followed on their rotations (``moved``), else a
 backtracking search on the straight path (≤ HALVINGS halvings); a trial is accepted on no
 increase up to the rounding of E, its own and that from the coordinates' (see
@@ -29,7 +31,7 @@ def build(t) -> SimpleNamespace:
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
-    assemble, solve_tree = t.assemble, t.solve_tree
+    assemble, solve_tree, solve_factored = t.assemble, t.solve_tree, t.solve_factored
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
     incremental_potential = t.incremental_potential
 
@@ -241,15 +243,27 @@ def build(t) -> SimpleNamespace:
         failures = int(0)
         converged = int(0)
         residual = zero
+        factored = int(0)
         for it in range(model.newton_max_iter):
-            assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2)
-            solve_tree(model, scratch, env)
-            disp, affine_max = update_size(model, scratch, env)
-            residual = wp.max(disp, affine_max) / dt
             iterations = it + 1
             for k in range(n_free):
                 b = model.elim_order[k]
                 scratch.q_start[env, b] = q[env, b]
+            if factored != 0:
+                # the last factors with the new gradient: converged already, no new Hessian
+                assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2, 0)
+                solve_factored(model, scratch, env)
+                disp, affine_max = update_size(model, scratch, env)
+                residual = wp.max(disp, affine_max) / dt
+                if disp <= disp_tol and affine_max <= affine_tol:
+                    move(model, q, scratch, env, one, 0)
+                    converged = 1
+                    break
+            assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2, 1)
+            solve_tree(model, scratch, env)
+            factored = 1
+            disp, affine_max = update_size(model, scratch, env)
+            residual = wp.max(disp, affine_max) / dt
             if disp <= disp_tol and affine_max <= affine_tol:
                 move(model, q, scratch, env, one, 0)
                 converged = 1

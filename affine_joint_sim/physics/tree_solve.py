@@ -1,7 +1,8 @@
 """Newton system solve: block-tree Cholesky, leaves first, O(bodies) (docs/physics.md#tree-solve).
 
 The free bodies joined by joints form a forest; eliminating them in ``model.elim_order``
-(every body before its tree parent) factors H without fill-in: 12×12 blocks only.
+(every body before its tree parent) factors H without fill-in: 12×12 blocks only. The factors
+stay in scratch, so a later right-hand side is solved without factoring again.
 """
 
 from types import SimpleNamespace
@@ -99,21 +100,18 @@ def build(t) -> SimpleNamespace:
         return out
 
     @wp.func
-    def solve_tree(model: Model, scratch: Scratch, env: int):
-        """Solve H dq = rhs into scratch.dq from the blocks scratch.hessian (diagonal) and
-        model.elim_offdiag or, with state_coupling, scratch.offdiag (coupling to the tree
-        parent)."""
+    def factor_tree(model: Model, scratch: Scratch, env: int):
+        """Factor H from the blocks scratch.hessian (diagonal) and model.elim_offdiag or, with
+        state_coupling, scratch.offdiag (coupling to the tree parent): each body's lower factor
+        into scratch.factor, its L⁻¹·coupling into scratch.coupling."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
             b = model.elim_order[k]
             scratch.factor[env, b] = scratch.hessian[env, b]
-            scratch.forward[env, b] = scratch.rhs[env, b]
         for k in range(n_free):
             b = model.elim_order[k]
             low = cholesky(scratch.factor[env, b])
             scratch.factor[env, b] = low
-            y = forward_solve(low, scratch.forward[env, b])
-            scratch.forward[env, b] = y
             p = model.elim_parent[b]
             if p >= 0:
                 off = model.elim_offdiag[b]
@@ -122,7 +120,22 @@ def build(t) -> SimpleNamespace:
                 w = forward_solve_matrix(low, off)
                 scratch.coupling[env, b] = w
                 scratch.factor[env, p] = subtract_gram(scratch.factor[env, p], w)
-                scratch.forward[env, p] = subtract_transposed(scratch.forward[env, p], w, y)
+
+    @wp.func
+    def solve_factored(model: Model, scratch: Scratch, env: int):
+        """Solve H dq = rhs into scratch.dq with the factors of the last ``factor_tree``."""
+        n_free = model.elim_order.shape[0]
+        for k in range(n_free):
+            b = model.elim_order[k]
+            scratch.forward[env, b] = scratch.rhs[env, b]
+        for k in range(n_free):
+            b = model.elim_order[k]
+            y = forward_solve(scratch.factor[env, b], scratch.forward[env, b])
+            scratch.forward[env, b] = y
+            p = model.elim_parent[b]
+            if p >= 0:
+                scratch.forward[env, p] = subtract_transposed(scratch.forward[env, p],
+                                                              scratch.coupling[env, b], y)
         for kk in range(n_free):
             b = model.elim_order[n_free - 1 - kk]
             r = scratch.forward[env, b]
@@ -131,5 +144,12 @@ def build(t) -> SimpleNamespace:
                 r = r - scratch.coupling[env, b] @ scratch.dq[env, p]
             scratch.dq[env, b] = backward_solve(scratch.factor[env, b], r)
 
+    @wp.func
+    def solve_tree(model: Model, scratch: Scratch, env: int):
+        """Factor H (``factor_tree``) and solve H dq = rhs into scratch.dq."""
+        factor_tree(model, scratch, env)
+        solve_factored(model, scratch, env)
+
     return SimpleNamespace(cholesky=cholesky, forward_solve=forward_solve,
-                           backward_solve=backward_solve, solve_tree=solve_tree)
+                           backward_solve=backward_solve, factor_tree=factor_tree,
+                           solve_factored=solve_factored, solve_tree=solve_tree)
