@@ -55,9 +55,9 @@ def test_a_step_moves_only_what_is_read():
     assert (moves.copies, moves.bytes_moved) == (1, joints)
     sim.step()
     sim.body_q
-    sim.stats                                                  # stats, and q for the strain
+    sim.stats                                                  # the statistics alone
     bodies = 2 * 4 * len(sim.body_names) * 12 * 8
-    assert moves.copies == 3 and moves.bytes_moved == joints + bodies + 4 * (8 * 4 + 2 * 8)
+    assert moves.copies == 3 and moves.bytes_moved == joints + bodies + 4 * (8 * 4 + 3 * 8)
     assert not sim._uploads.pending
     sim.set_torque('slide', 1.0)
     assert sim._uploads.pending
