@@ -10,7 +10,9 @@ look at one number, the count of environments that had a problem, runs per step.
 """
 
 import math
+import os
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import warp as wp
@@ -50,6 +52,18 @@ _OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort')
                   'coordinate': ('joint_coordinate',)}
 
 
+def _chunks(envs: int, threads: int | None) -> list[tuple[int, int]]:
+    """(first environment, count) of each thread's share of ``envs`` (even shares, the first
+    ones one larger); ``threads`` None: one per core the process may use."""
+    if threads is None:
+        threads = len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else (
+            os.cpu_count() or 1)
+    threads = max(1, min(threads, envs))
+    size, extra = divmod(envs, threads)
+    counts = [size + (k < extra) for k in range(threads)]
+    return [(sum(counts[:k]), counts[k]) for k in range(threads)]
+
+
 class Stepper:
     """Affine-body simulation of one scene, in one or ``num_envs`` independent environments.
 
@@ -59,13 +73,16 @@ class Stepper:
         num_envs: number of environments; ``None`` for a single one without the env axis.
         on_problem: called with the message of each problem a step reports (once per kind
             and reset); default: a ``SimulationWarning``.
+        threads: CPU threads that step the environments, each its own share of them at once
+            (default: one per core the process may use, at most one per environment; a GPU
+            steps them all in one launch).
     """
 
     # Host mirrors on the CPU too: runs the GPU's upload/download path where CI can test it.
     _mirror_on_cpu = False
 
     def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None,
-                 on_problem=None):
+                 on_problem=None, threads: int | None = None):
         if not isinstance(scene, Scene):
             scene = Scene.load(scene)
         if num_envs is not None and (int(num_envs) != num_envs or num_envs < 1):
@@ -75,6 +92,12 @@ class Stepper:
         self.device = wp.get_device(device)
         self._batched = num_envs is not None
         self._envs = 1 if num_envs is None else int(num_envs)
+        if threads is not None and (int(threads) != threads or threads < 1):
+            raise ValueError(f'threads must be a positive integer or None, got {threads!r}')
+        cpu = self.device.is_cpu and not self._mirror_on_cpu
+        self._chunks = _chunks(self._envs, threads if cpu else 1)
+        self._pool = (ThreadPoolExecutor(len(self._chunks) - 1, 'affine-joint-sim-step')
+                      if len(self._chunks) > 1 else None)
         self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision))
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
@@ -232,14 +255,22 @@ class Stepper:
 
         An environment whose step is rejected (``stats['step_rejected']``) keeps its last good
         state while the time still advances; a SimulationWarning says why, once per reset."""
-        wp.capture_launch(self._graphs[self._uploads.take()])
+        if self._pool is None:
+            wp.capture_launch(self._graphs[self._uploads.take()])
+        else:                   # the CPU: one launch per share, at once (the GIL is released)
+            self._problems.fill(0)
+            shares = [self._pool.submit(launch.launch) for launch in self._launches[1:]]
+            self._launches[0].launch()
+            for share in shares:
+                share.result()
         if not self.device.is_cpu:
             wp.synchronize_device(self.device)
         self._downloads.stale()
         self._steps += 1
-        if self._problems[0] != 0:
-            self._problem_totals += self._problems
-            self._check()
+        counts = self._problems.sum(axis=0) if self._pool is not None else self._problems[0]
+        if counts[0] != 0:
+            self._problem_totals += counts
+            self._check(counts)
 
     def reset(self) -> None:
         """Back to the scene's initial state, time 0 and the scene's initial commands."""
@@ -397,14 +428,14 @@ class Stepper:
             for name in _FLAGS:
                 stats[name] = bool(stats[name])
         stats['active_terms'] = self._active_terms()
-        stats['launches_per_step'] = 1
+        stats['launches_per_step'] = len(self._chunks)
         return stats
 
     # ---- internals --------------------------------------------------------------------------
 
     def _allocate(self):
         k, h, dev, n = self._k, self._host, self.device, self._envs
-        sizes = array_sizes(h, n)
+        sizes = array_sizes(h, n, len(self._chunks))
         self._model = device_model(k, k.structs.Model, h, dev)
         state, control, scratch = (allocate(k, getattr(k.structs, group.capitalize()), group,
                                             sizes, dev)
@@ -441,25 +472,33 @@ class Stepper:
         return self._downloads.read(name)
 
     def _record(self):
-        """Capture the step graphs: without (False) and with (True) the command upload."""
+        """Capture the step graphs: without (False) and with (True) the command upload; with
+        several CPU threads, one recorded launch per share of the environments instead."""
         args = [self._model, self._state, self._control, self._scratch]
         problems = self._state.problem_counts
         wp.load_module(self._k.step.module, device=self.device)
         self._graphs = {}
+        if self._pool is not None:
+            self._launches = [wp.launch(self._k.step, dim=count, inputs=[*args, first, chunk],
+                                        device=self.device, record_cmd=True)
+                              for chunk, (first, count) in enumerate(self._chunks)]
+            return
         for upload in (False, True) if self._uploads.separate else (False,):
             with wp.ScopedCapture(device=self.device) as capture:
                 if upload:
                     self._uploads.record()
                 problems.zero_()
-                wp.launch(self._k.step, dim=self._envs, inputs=args, device=self.device)
+                wp.launch(self._k.step, dim=self._envs, inputs=[*args, 0, 0],
+                          device=self.device)
                 if self._problems_host is not problems:
                     wp.copy(self._problems_host, problems)
             self._graphs[upload] = capture.graph
 
-    def _check(self):
-        """Warn once per kind of problem the last step had (the stats keep the per-step flags;
-        they are read only for the message of a kind not warned about yet)."""
-        for name, count in zip(PROBLEM_COLUMNS[1:], self._problems[1:]):
+    def _check(self, counts):
+        """Warn once per kind of problem the last step had (``counts``: environments per
+        column; the stats keep the per-step flags; they are read only for the message of a
+        kind not warned about yet)."""
+        for name, count in zip(PROBLEM_COLUMNS[1:], counts[1:]):
             if count == 0 or name in self._warned:
                 continue
             self._warned.add(name)

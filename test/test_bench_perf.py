@@ -58,7 +58,7 @@ def test_markdown_table_formats_cells_and_marks_missing_values():
 
 def test_batch_scan_stops_before_a_step_would_exceed_the_limit(monkeypatch):
     # a step of N environments takes 10 µs · N; the limit of 1 ms admits N ≤ 100
-    monkeypatch.setattr(batch, 'measure', lambda scene, envs, device, settings: {
+    monkeypatch.setattr(batch, 'measure', lambda scene, envs, device, settings, threads: {
         'envs': envs, 'us_per_step': 10.0 * envs})
     settings = batch.Settings(envs=(1, 4, 16, 64, 256, 1024), run_s=0.0, repeats=1,
                               max_step_s=1e-3)
@@ -97,7 +97,8 @@ def test_tiny_runs_write_their_tables_csv_and_plots(tmp_path):
     columns, count = _csv_columns(tmp_path / 'scaling.csv')
     assert count == 2 and {'links', 'us_per_step', 'us_per_iteration'} <= set(columns)
     columns, count = _csv_columns(tmp_path / 'batch.csv')
-    assert count == 4 and {'scene', 'envs', 'env_steps_per_s'} <= set(columns)
+    # two scenes, N = 1 and 4, on one thread and on every core
+    assert count == 8 and {'scene', 'envs', 'threads', 'env_steps_per_s'} <= set(columns)
     for name in ('perf.md', 'scaling.md', 'scaling.png', 'batch.md', 'batch.png'):
         assert (tmp_path / name).stat().st_size > 0
     assert 'exponents' in (tmp_path / 'scaling.md').read_text()

@@ -9,7 +9,8 @@ from affine_joint_sim.physics.kernels import step_kernels
 from affine_joint_sim.physics.model import HostModel, build_model
 from test_joints import every_joint_type
 
-SIZES = {'env': 3, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 2, 'problem': 6}
+SIZES = {'env': 3, 'chunk': 2, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 3,
+         'problem': 6}
 
 
 @pytest.mark.parametrize('scalar', [wp.float64, wp.float32])

@@ -281,6 +281,32 @@ def test_reset_restores_initial_state_and_time():
     np.testing.assert_array_equal(run(sim, 30), first)
 
 
+@pytest.mark.parametrize('threads', [2, 3])
+def test_environments_stepped_on_several_threads_equal_one_thread_bit_for_bit(threads):
+    """Each thread steps its own share of the environments at once (one launch each, the
+    GIL released): the states, statistics and problem counts are those of one launch."""
+    scene = Scene.from_yaml(SCENES / 'double_pendulum.yaml')
+    runs = {}
+    for count in (1, threads):
+        sim = Stepper(scene, num_envs=5, threads=count, on_problem=lambda message: None)
+        sim.set_torque('shoulder', np.array([0.0, 1.5, -3.0, 1e308, 2.0]))  # env 3 overflows
+        for _ in range(20):
+            sim.step()
+        runs[count] = sim
+    one, many = runs[1], runs[threads]
+    assert many.stats['launches_per_step'] == threads and one.stats['launches_per_step'] == 1
+    np.testing.assert_array_equal(many.body_q, one.body_q)
+    for name, value in one.stats.items():
+        if name != 'launches_per_step':
+            np.testing.assert_array_equal(many.stats[name], value)
+    assert many.problem_totals == one.problem_totals and one.problem_totals['non_finite'] == 20
+
+
+def test_threads_must_be_a_positive_integer():
+    with pytest.raises(ValueError, match='threads must be a positive integer or None'):
+        Stepper(SCENES / 'pendulum.yaml', num_envs=2, threads=0)
+
+
 def test_batched_envs_equal_single_runs_bit_for_bit():
     scene = Scene.from_yaml(SCENES / 'double_pendulum.yaml')
     torques = np.array([0.0, 1.5, -3.0])

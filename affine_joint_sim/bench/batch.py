@@ -2,7 +2,8 @@
 
 Every environment gets its own shoulder torque (spread over ±1 N·m), so the per-env control
 path is exercised. N grows by 4 until one step would take longer than ``max_step_s`` (on a
-CPU that ends the scan early: there one thread steps every environment in turn).
+CPU that ends the scan early: there each thread steps its share of the environments in turn).
+On the CPU every N runs on one thread and on every core the process may use.
 """
 
 import time
@@ -28,21 +29,24 @@ class Settings(NamedTuple):
 FULL, QUICK = Settings(ENVS, 0.05, 3, 0.05), Settings(ENVS[:5], 0.02, 3, 0.01)
 
 
-def measure(scene_name: str, envs: int, device: str, settings: Settings) -> dict:
-    """One row: µs/step and env-steps/s of ``envs`` environments of a packaged scene."""
+def measure(scene_name: str, envs: int, device: str, settings: Settings,
+            threads: int | None = None) -> dict:
+    """One row: µs/step and env-steps/s of ``envs`` environments of a packaged scene stepped
+    by ``threads`` CPU threads (None: the Stepper's default, one per core)."""
     import numpy as np
 
     from affine_joint_sim.bench.timing import measure_steps
     from affine_joint_sim.resources import scene_path
     from affine_joint_sim.stepper import Stepper
 
-    sim = Stepper(scene_path(scene_name), device=device, num_envs=envs)
+    sim = Stepper(scene_path(scene_name), device=device, num_envs=envs, threads=threads)
     start = time.perf_counter()
     sim.step()
     steps = max(3, round(settings.run_s / (time.perf_counter() - start)))
     timing = measure_steps(sim, {'shoulder': np.linspace(-1.0, 1.0, envs)}, steps,
                            settings.repeats)
-    return {'scene': scene_name, 'device': str(sim.device), 'envs': envs, 'steps': steps,
+    return {'scene': scene_name, 'device': str(sim.device), 'envs': envs,
+            'threads': sim.stats['launches_per_step'], 'steps': steps,
             'us_per_step': timing['us_per_step'],
             'env_steps_per_s': envs / timing['us_per_step'] * 1e6,
             'newton_iterations': timing['newton_iterations'],
@@ -50,17 +54,19 @@ def measure(scene_name: str, envs: int, device: str, settings: Settings) -> dict
             'syncs_per_step': timing['syncs_per_step']}
 
 
-def scan(scene_name: str, device: str, settings: Settings) -> list[dict]:
+def scan(scene_name: str, device: str, settings: Settings,
+         threads: int | None = None) -> list[dict]:
     """Rows for growing N until the next step would exceed ``settings.max_step_s``."""
     rows = []
     for envs in settings.envs:
         if rows and rows[-1]['us_per_step'] * 1e-6 * envs / rows[-1]['envs'] > settings.max_step_s:
             break
-        rows.append(measure(scene_name, envs, device, settings))
+        rows.append(measure(scene_name, envs, device, settings, threads))
     return rows
 
 
 COLUMNS = [Column('scene', 'scene'), Column('device', 'device'), Column('envs', 'N envs'),
+           Column('threads', 'threads'),
            Column('us_per_step', 'µs/step', '{:.1f}'),
            Column('env_steps_per_s', 'env-steps/s', '{:.3g}'),
            Column('newton_iterations', 'Newton it./step', '{:.2f}'),
@@ -70,15 +76,16 @@ COLUMNS = [Column('scene', 'scene'), Column('device', 'device'), Column('envs', 
 
 def run(results: Path, devices: list[str], settings: Settings) -> None:
     """Scan N for every scene and device; write batch.md, batch.csv and batch.png."""
-    groups = {(scene, device): scan(scene, device, settings)
-              for device in devices for scene in SCENES}
+    groups = {(scene, device, threads): scan(scene, device, settings, threads)
+              for device in devices for scene in SCENES
+              for threads in ((1, None) if device == 'cpu' else (None,))}
     rows = [row for group in groups.values() for row in group]
     text = (f'## Batched environments (median of {settings.repeats} runs of about '
             f'{settings.run_s:g} s)\n\n{markdown_table(rows, COLUMNS)}\n')
     loglog_plot(results / 'batch.png',
-                {f'{scene}, {device}': ([r['envs'] for r in group],
-                                        [r['env_steps_per_s'] for r in group])
-                 for (scene, device), group in groups.items()},
+                {f'{scene}, {device}, {group[0]["threads"]} thread(s)':
+                 ([r['envs'] for r in group], [r['env_steps_per_s'] for r in group])
+                 for (scene, device, _), group in groups.items()},
                 'environments N', 'env-steps per second', 'Batched throughput')
     publish(results, 'batch', text, rows, ('batch.png',))
 

@@ -90,7 +90,7 @@ def _stepper(scene, torque, device, envs=None, torques=None, said=None):
         if said is not None:
             said.add(message.split(': ', 1)[-1].split(' (')[0])
 
-    sim = Stepper(scene, device=device, num_envs=envs, on_problem=heard)
+    sim = Stepper(scene, device=device, num_envs=envs, on_problem=heard, threads=1)  # one graph
     for name in sim.command_joint_names:
         sim.set_torque(name, torque if torques is None else torques)
     return sim

@@ -40,10 +40,11 @@ def build(t) -> SimpleNamespace:
                                         _P['line_search_failures'])
 
     @wp.func
-    def count_problem(state: State, column: int, present: int):
-        """Count this environment under problem ``column`` if ``present``; returns present."""
+    def count_problem(state: State, chunk: int, column: int, present: int):
+        """Count this environment under problem ``column`` of its launch's row ``chunk`` if
+        ``present``; returns present."""
         if present != 0:
-            wp.atomic_add(state.problem_counts, column, 1)
+            wp.atomic_add(state.problem_counts, chunk, column, 1)
         return present
 
     @wp.func
@@ -140,9 +141,9 @@ def build(t) -> SimpleNamespace:
         return strain
 
     @wp.func
-    def write_stats(state: State, env: int, iterations: int, halvings: int, converged: int,
-                    failures: int, aliased: int, dropped: int, finite: int, rejected: int,
-                    residual: scalar, gap: scalar, strain: scalar):
+    def write_stats(state: State, env: int, chunk: int, iterations: int, halvings: int,
+                    converged: int, failures: int, aliased: int, dropped: int, finite: int,
+                    rejected: int, residual: scalar, gap: scalar, strain: scalar):
         """The step's statistics, addressed by the names of physics.fields, and the
         environment counted in state.problem_counts under each problem it had (a rejected
         step's Newton status does not count: its state was not kept)."""
@@ -163,15 +164,15 @@ def build(t) -> SimpleNamespace:
         failed = int(0)
         if failures != 0:
             failed = 1
-        problems = count_problem(state, p_not_converged, not_converged)
-        problems += count_problem(state, p_non_finite, 1 - finite)
-        problems += count_problem(state, p_aliased, aliased)
-        problems += count_problem(state, p_dropped, dropped)
-        problems += count_problem(state, p_failures, failed)
+        problems = count_problem(state, chunk, p_not_converged, not_converged)
+        problems += count_problem(state, chunk, p_non_finite, 1 - finite)
+        problems += count_problem(state, chunk, p_aliased, aliased)
+        problems += count_problem(state, chunk, p_dropped, dropped)
+        problems += count_problem(state, chunk, p_failures, failed)
         any_problem = int(0)
         if problems != 0:
             any_problem = 1
-        count_problem(state, p_any, any_problem)
+        count_problem(state, chunk, p_any, any_problem)
 
     return SimpleNamespace(finish=finish, largest_gap=largest_gap,
                            largest_strain=largest_strain, write_stats=write_stats)

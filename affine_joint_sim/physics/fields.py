@@ -114,9 +114,9 @@ FIELDS = _fields('model', [
     ('joint_effort', 'scalar', EJ, 'N·m | N', 'torque or force applied in the last step'),
     ('stats_int', 'int32', ('env', 'stat_int'), '-', 'STAT_INT_NAMES of the last step'),
     ('stats_float', 'scalar', ('env', 'stat_float'), 'm/s, m, -', 'STAT_FLOAT_NAMES'),
-    ('problem_counts', 'int32', ('problem',), '-', 'environments of the last step with any and '
-     'with each kind of PROBLEM_COLUMNS (zeroed before each step): what the host reads every '
-     'step; the stats only for a kind it has not warned about yet'),
+    ('problem_counts', 'int32', ('chunk', 'problem'), '-', 'environments of the last step '
+     'with any and with each kind of PROBLEM_COLUMNS, per launch (zeroed before each step): '
+     'what the host reads every step; the stats only for a kind it has not warned about yet'),
 ]) + _fields('control', [
     ('joint_torque', 'scalar', EJ, 'N·m | N', 'external torque τ (UID 668) or force (UID 667)'),
     ('joint_enabled', 'int32', EJ, '-', 'external_torque/is_constrained'),
@@ -196,9 +196,11 @@ def allocate(t, struct, group, sizes: dict, device):
     return instance
 
 
-def array_sizes(host, envs: int) -> dict:
-    """The symbolic dimensions of the fields for a host model and ``envs`` environments."""
-    return {'env': envs, 'body': host.body_count, 'free': int(np.sum(host.body_fixed == 0)),
+def array_sizes(host, envs: int, chunks: int = 1) -> dict:
+    """The symbolic dimensions of the fields for a host model and ``envs`` environments
+    stepped in ``chunks`` launches (one problem count row each)."""
+    return {'env': envs, 'chunk': chunks, 'body': host.body_count,
+            'free': int(np.sum(host.body_fixed == 0)),
             'joint': host.joint_count, 'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 

@@ -1,10 +1,11 @@
 """The step kernel: one launch steps every environment by dt (docs/architecture.md#the-step-kernel).
 
-One thread per environment: prediction, explicit commands, Newton with line search, then
-commit or reject and the statistics. No host sync inside a step. The kernel gets a Warp
-module of its own per precision (``module="unique"``) and no adjoint: nothing differentiates
-the step, and Warp's generated backward pass made it compile several times slower
-(docs/architecture.md#measured-figures).
+One thread per environment (environments first_env, first_env + 1, ...: the CPU steps a batch
+in several launches at once, each counting its problems in its own row ``chunk``): prediction,
+explicit commands, Newton with line search, then commit or reject and the statistics. No host
+sync inside a step. The kernel gets a Warp module of its own per precision
+(``module="unique"``) and no adjoint: nothing differentiates the step, and Warp's generated
+backward pass made it compile several times slower (docs/architecture.md#measured-figures).
 """
 
 from types import SimpleNamespace
@@ -24,9 +25,10 @@ def build(t) -> SimpleNamespace:
     salt = t.source_salt
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
-    def step(model: Model, state: State, control: Control, scratch: Scratch):
+    def step(model: Model, state: State, control: Control, scratch: Scratch, first_env: int,
+             chunk: int):
         wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
-        env = wp.tid()
+        env = first_env + wp.tid()
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env)
         predict(model, state, scratch, env, bdf2, force_scale)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
@@ -35,8 +37,8 @@ def build(t) -> SimpleNamespace:
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if finite == 0:
             converged = 0
-        write_stats(state, env, iterations, halvings, converged, failures, aliased, dropped,
-                    finite, rejected, residual, largest_gap(model, state, env),
+        write_stats(state, env, chunk, iterations, halvings, converged, failures, aliased,
+                    dropped, finite, rejected, residual, largest_gap(model, state, env),
                     largest_strain(model, state, env))
 
     return SimpleNamespace(step=step)
