@@ -12,6 +12,7 @@ look at one number, the count of environments that had a problem, runs per step.
 import math
 import os
 import warnings
+import weakref
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -96,8 +97,10 @@ class Stepper:
             raise ValueError(f'threads must be a positive integer or None, got {threads!r}')
         cpu = self.device.is_cpu and not self._mirror_on_cpu
         self._chunks = _chunks(self._envs, threads if cpu else 1)
-        self._pool = (ThreadPoolExecutor(len(self._chunks) - 1, 'affine-joint-sim-step')
-                      if len(self._chunks) > 1 else None)
+        self._pool = None
+        if len(self._chunks) > 1:
+            self._pool = ThreadPoolExecutor(len(self._chunks) - 1, 'affine-joint-sim-step')
+            weakref.finalize(self, self._pool.shutdown, wait=False)
         self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision))
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
@@ -260,9 +263,11 @@ class Stepper:
         else:                   # the CPU: one launch per share, at once (the GIL is released)
             self._problems.fill(0)
             shares = [self._pool.submit(launch.launch) for launch in self._launches[1:]]
-            self._launches[0].launch()
-            for share in shares:
-                share.result()
+            try:
+                self._launches[0].launch()
+            finally:            # every share ends before the next step or error
+                for share in shares:
+                    share.result()
         if not self.device.is_cpu:
             wp.synchronize_device(self.device)
         self._downloads.stale()

@@ -8,8 +8,7 @@ from affine_joint_sim.ros.commands import CommandBuffer
 
 
 class FakeStepper:
-    """Records what the buffer writes (the Stepper's set_torque/set_torques/set_enabled
-    signatures; the buffers here command joints 'a', 'b', 'c' in that order)."""
+    """Records what the buffer writes (the Stepper's set_torque/set_enabled signatures)."""
 
     def __init__(self):
         self.torque, self.enabled, self.target = {}, {}, {}
@@ -19,9 +18,6 @@ class FakeStepper:
 
     def set_torque(self, name, value):
         self.torque[name] = value
-
-    def set_torques(self, values):
-        self.torque.update(zip('abc', values.tolist()))
 
     def set_enabled(self, name, flag):
         self.enabled[name] = flag

@@ -83,9 +83,9 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
     text = (f'## Batched environments (median of {settings.repeats} runs of about '
             f'{settings.run_s:g} s)\n\n{markdown_table(rows, COLUMNS)}\n')
     loglog_plot(results / 'batch.png',
-                {f'{scene}, {device}, {group[0]["threads"]} thread(s)':
+                {f'{scene}, {device}' + {1: ', one thread', None: ''}[threads]:
                  ([r['envs'] for r in group], [r['env_steps_per_s'] for r in group])
-                 for (scene, device, _), group in groups.items()},
+                 for (scene, device, threads), group in groups.items()},
                 'environments N', 'env-steps per second', 'Batched throughput')
     publish(results, 'batch', text, rows, ('batch.png',))
 

@@ -54,8 +54,10 @@ def run_stepper_batch(cases: list[Case], references: list[Reference], *, dt: flo
         raise ValueError('a batch shares its scene and duration; only torques may differ')
     with warnings.catch_warnings():
         warnings.simplefilter('ignore', SimulationWarning)
+        # one thread: a sweep's µs are per environment on one core (and its workers own the
+        # other cores)
         sim = Stepper(with_settings(cases[0].scene, dt, integrator, newton_tol, precision),
-                      device=device, num_envs=len(cases))
+                      device=device, num_envs=len(cases), threads=1)
         return _run_stepper(sim, cases, references, repeats)
 
 

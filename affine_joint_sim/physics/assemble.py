@@ -26,6 +26,7 @@ def build(t) -> SimpleNamespace:
     joint_coordinate, joint_coordinate_gradients = (t.joint_coordinate,
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
+    limit_penetration = t.limit_penetration
 
     @wp.func
     def add_blocks(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
@@ -64,19 +65,26 @@ def build(t) -> SimpleNamespace:
                          bdf2: int, hessian: int):
         """Joint k's state-dependent blocks (prismatic axis terms) and its coordinate terms'
         gradient and Gauss–Newton blocks, where they are not zero (the gradient alone
-        without ``hessian``)."""
+        without ``hessian``). Returns 1 if the joint's limit is entered at q or was at the
+        last factorization (its stiffness then changed since: the last factors cannot be
+        trusted for this gradient), else 0."""
         if hessian != 0:
             h_pp, h_pc, h_cc, has = joint_state_blocks(model, q, env, k)
             if has != 0:
                 add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
+        untrusted = int(0)
         if model.joint_state_terms[k] != 0:
             x = joint_coordinate(model, q, state, env, k)
             e, d1, d2 = coordinate_terms(model, state, control, env, k, x, bdf2)
             if hessian == 0:
+                if model.joint_limit_strength[k] > zero:
+                    depth, side = limit_penetration(model, k, x)
+                    if depth > zero or scratch.limit_depth[env, k] > zero:
+                        untrusted = 1
                 if d1 != zero:
                     x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
                     add_gradients(model, scratch, env, k, d1 * x_parent, d1 * x_child)
-                return
+                return untrusted
             if model.joint_limit_strength[k] > zero:
                 depth, change = limit_secant(model, k, x, scratch.limit_depth[env, k])
                 scratch.limit_depth[env, k] = depth
@@ -86,12 +94,15 @@ def build(t) -> SimpleNamespace:
                 add_blocks(model, scratch, env, k, d1 * x_parent, d1 * x_child,
                            d2 * wp.outer(x_parent, x_parent), d2 * wp.outer(x_parent, x_child),
                            d2 * wp.outer(x_child, x_child))
+        return untrusted
 
     @wp.func
     def assemble(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
                  scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int, hessian: int):
         """rhs = −∇E(q) and, with ``hessian``, hessian = the diagonal blocks of ∇²E(q) of the
-        free bodies (and offdiag = their coupling blocks when the model has state_coupling)."""
+        free bodies (and offdiag = their coupling blocks when the model has state_coupling).
+        Returns the number of joints whose limit makes the last factors untrusted (gradient
+        alone; see ``add_state_blocks``)."""
         dt2 = model.dt * model.dt
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
@@ -108,12 +119,15 @@ def build(t) -> SimpleNamespace:
                     add_mass(model.body_joint_hessian[b], m, s, kinetic_scale), ortho, a)
                 if model.state_coupling != 0:
                     scratch.offdiag[env, b] = model.elim_offdiag[b]
+        untrusted = int(0)
         for k in range(model.joint_parent.shape[0]):
             if model.joint_has_free[k] == 0:
                 continue
             g_parent, g_child = joint_gradients(model, q, env, k)
             add_gradients(model, scratch, env, k, g_parent, g_child)
             if model.state_coupling != 0:
-                add_state_blocks(model, state, control, q, scratch, env, k, bdf2, hessian)
+                untrusted += add_state_blocks(model, state, control, q, scratch, env, k, bdf2,
+                                              hessian)
+        return untrusted
 
     return SimpleNamespace(assemble=assemble)

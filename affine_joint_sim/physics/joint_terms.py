@@ -130,4 +130,4 @@ def build(t) -> SimpleNamespace:
         return e, d1, d2
 
     return SimpleNamespace(joint_coordinate=joint_coordinate, coordinate_terms=coordinate_terms,
-                           limit_secant=limit_secant)
+                           limit_penetration=limit_penetration, limit_secant=limit_secant)

@@ -251,11 +251,12 @@ def build(t) -> SimpleNamespace:
                 scratch.q_start[env, b] = q[env, b]
             if factored != 0:
                 # the last factors with the new gradient: converged already, no new Hessian
-                assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2, 0)
+                untrusted = assemble(model, state, control, q, scratch, env, kinetic_scale,
+                                     bdf2, 0)
                 solve_factored(model, scratch, env)
                 disp, affine_max = update_size(model, scratch, env)
                 residual = wp.max(disp, affine_max) / dt
-                if disp <= disp_tol and affine_max <= affine_tol:
+                if untrusted == 0 and disp <= disp_tol and affine_max <= affine_tol:
                     move(model, q, scratch, env, one, 0)
                     converged = 1
                     break

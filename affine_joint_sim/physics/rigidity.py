@@ -7,7 +7,8 @@ the larger of
 - the weight it carries, W_k = g·m_k with m_k the free mass beyond k (the side without a fixed
   body; the lighter side of a floating robot), at the lever from b's centre of mass out to k's
   anchors and on to that mass's centre, and
-- its effort limit (a torque up to it loads both bodies; ``.inf`` counts nothing).
+- its effort limit (a torque up to it loads both bodies; a prismatic joint's force, at that
+  lever; ``.inf`` counts nothing).
 A body whose ``kappa`` the scene gives keeps it; every other body gets
 max(DEFAULT_KAPPA v̄, min(L_max / (8 TARGET_STRAIN), s_min / (8 dt² ε RESOLUTION))): the
 second bound keeps its stiffest affine entry 8 dt² κ v̄ within what the precision (rounding
@@ -61,7 +62,9 @@ def _largest_moments(scene, props) -> np.ndarray:
         effort = joint.effort_limit if math.isfinite(joint.effort_limit) else 0.0
         for b in ends[k]:
             lever = max(pm.norm(a - centre[b]) + pm.norm(carried_centre - a) for a in anchors)
-            moments[b] = max(moments[b], g * carried * lever, effort)
+            # a revolute effort is a torque [N·m]; a prismatic one a force [N] at the lever
+            push = effort * lever if joint.type == 'prismatic' else effort
+            moments[b] = max(moments[b], g * carried * lever, push)
     return moments
 
 

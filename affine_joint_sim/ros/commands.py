@@ -171,7 +171,8 @@ class CommandBuffer:
 
         Returns one notice per joint whose torque just timed out (said once per silence).
         """
-        if len(self._torque) == len(self.joint_names):     # a whole array: one call
+        if (len(self._torque) == len(self.joint_names)      # a whole array: one call
+                and getattr(stepper, 'command_joint_names', None) == self.joint_names):
             stepper.set_torques(np.array([self._torque[k] for k in range(len(self._torque))]))
         else:
             for k, value in self._torque.items():
