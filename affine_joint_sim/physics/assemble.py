@@ -29,26 +29,6 @@ def build(t) -> SimpleNamespace:
     limit_penetration = t.limit_penetration
 
     @wp.func
-    def add_blocks(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
-                   g_child: vec12, h_pp: mat12, h_pc: mat12, h_cc: mat12):
-        """Gradients into rhs, diagonal blocks into hessian and the coupling block into offdiag
-        (transposed when its slot belongs to the child) of joint k's free bodies."""
-        bp = model.joint_parent[k]
-        bc = model.joint_child[k]
-        if model.body_fixed[bp] == 0:
-            scratch.rhs[env, bp] -= g_parent
-            scratch.hessian[env, bp] += h_pp
-        if model.body_fixed[bc] == 0:
-            scratch.rhs[env, bc] -= g_child
-            scratch.hessian[env, bc] += h_cc
-        slot = model.joint_offdiag_body[k]
-        if slot >= 0:
-            if model.joint_offdiag_child[k] != 0:
-                scratch.offdiag[env, slot] += wp.transpose(h_pc)
-            else:
-                scratch.offdiag[env, slot] += h_pc
-
-    @wp.func
     def add_gradients(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
                       g_child: vec12):
         """Joint k's gradients into the rhs of its free bodies."""
@@ -58,6 +38,26 @@ def build(t) -> SimpleNamespace:
             scratch.rhs[env, bp] -= g_parent
         if model.body_fixed[bc] == 0:
             scratch.rhs[env, bc] -= g_child
+
+    @wp.func
+    def add_blocks(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
+                   g_child: vec12, h_pp: mat12, h_pc: mat12, h_cc: mat12):
+        """Gradients into rhs (``add_gradients``), diagonal blocks into hessian and the coupling
+        block into offdiag (transposed when its slot belongs to the child) of joint k's free
+        bodies."""
+        add_gradients(model, scratch, env, k, g_parent, g_child)
+        bp = model.joint_parent[k]
+        bc = model.joint_child[k]
+        if model.body_fixed[bp] == 0:
+            scratch.hessian[env, bp] += h_pp
+        if model.body_fixed[bc] == 0:
+            scratch.hessian[env, bc] += h_cc
+        slot = model.joint_offdiag_body[k]
+        if slot >= 0:
+            if model.joint_offdiag_child[k] != 0:
+                scratch.offdiag[env, slot] += wp.transpose(h_pc)
+            else:
+                scratch.offdiag[env, slot] += h_pc
 
     @wp.func
     def add_state_blocks(model: Model, state: State, control: Control,

@@ -24,7 +24,7 @@ _P = {name: i for i, name in enumerate(PROBLEM_COLUMNS)}
 def build(t) -> SimpleNamespace:
     """Warp functions of the commit stage for the types namespace ``t``."""
     scalar, zero, two, three, four = t.scalar, t.zero, t.two, t.three, t.four
-    affine = t.affine
+    affine, ortho_energy = t.affine, t.ortho_energy
     pi, two_pi = t.pi, t.two_pi
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
     joint_coordinate_step, joint_raw_coordinate = t.joint_coordinate_step, t.joint_raw_coordinate
@@ -136,8 +136,7 @@ def build(t) -> SimpleNamespace:
         strain = zero
         for k in range(model.elim_order.shape[0]):
             a = affine(state.q[env, model.elim_order[k]])
-            c = a @ wp.transpose(a) - wp.identity(n=3, dtype=scalar)
-            strain = wp.max(strain, wp.sqrt(wp.ddot(c, c)))
+            strain = wp.max(strain, wp.sqrt(ortho_energy(a)))
         return strain
 
     @wp.func

@@ -75,6 +75,17 @@ def build(t) -> SimpleNamespace:
         return disp, affine_max
 
     @wp.func
+    def update_test(model: Model, scratch: Scratch, env: int, disp_tol: scalar,
+                    affine_tol: scalar):
+        """(residual [m/s]: the larger update size / dt, 1 if both sizes are within their
+        tolerances) of the update scratch.dq (see ``update_size``)."""
+        disp, affine_max = update_size(model, scratch, env)
+        small = int(0)
+        if disp <= disp_tol and affine_max <= affine_tol:
+            small = 1
+        return wp.max(disp, affine_max) / model.dt, small
+
+    @wp.func
     def extent(model: Model, q: wp.array2d(dtype=vec12), env: int):
         """(largest world coordinate of a free body's box corner [m], smallest largest half
         extent of a free body [m]): the scale of position rounding and the shortest lever that
@@ -254,18 +265,16 @@ def build(t) -> SimpleNamespace:
                 untrusted = assemble(model, state, control, q, scratch, env, kinetic_scale,
                                      bdf2, 0)
                 solve_factored(model, scratch, env)
-                disp, affine_max = update_size(model, scratch, env)
-                residual = wp.max(disp, affine_max) / dt
-                if untrusted == 0 and disp <= disp_tol and affine_max <= affine_tol:
+                residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
+                if untrusted == 0 and small != 0:
                     move(model, q, scratch, env, one, 0)
                     converged = 1
                     break
             assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2, 1)
             solve_tree(model, scratch, env)
             factored = 1
-            disp, affine_max = update_size(model, scratch, env)
-            residual = wp.max(disp, affine_max) / dt
-            if disp <= disp_tol and affine_max <= affine_tol:
+            residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
+            if small != 0:
                 move(model, q, scratch, env, one, 0)
                 converged = 1
                 break
@@ -279,7 +288,8 @@ def build(t) -> SimpleNamespace:
             energy = trial
         return iterations, halvings, failures, converged, residual
 
-    return SimpleNamespace(warm_start=warm_start, update_size=update_size, extent=extent,
+    return SimpleNamespace(warm_start=warm_start, update_size=update_size,
+                           update_test=update_test, extent=extent,
                            rotation_of=rotation_of, rates=rates, moved=moved,
                            full_step=full_step, move=move,
                            line_search=line_search, newton=newton)
