@@ -15,7 +15,8 @@ GRIPPER = config_dir() / 'robots' / 'arm6_gripper.urdf'
 
 
 def test_the_pose_is_inside_every_limit_and_the_torques_hold_it_but_for_the_push():
-    scene, torques = zoo.load(str(GRIPPER), 1e-3)
+    scenes, torques = zoo.load(str(GRIPPER), (1e-3,))
+    scene = scenes[1e-3]
     for joint in scene.joints:
         if joint.limit is not None:
             margin = zoo.MARGIN * (joint.limit.upper - joint.limit.lower)

@@ -87,16 +87,15 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
 
     finest = min(settings.dts)
     samples = round(settings.duration / finest)
-    scene, torques = zoo.load(name, finest)
+    scenes, torques = zoo.load(name, settings.dts)
     peer = reference = None
     if mujoco_urdf.available():
-        peer = mujoco_urdf.MujocoRobot(zoo.urdf_path(name), scene)
+        peer = mujoco_urdf.MujocoRobot(zoo.urdf_path(name), scenes[finest])
         reference, _ = peer.run(torques, settings.reference_dt, 'rk4',
                                 round(settings.duration / settings.reference_dt),
                                 every=round(finest / settings.reference_dt))
     rows = []
-    for dt in settings.dts:
-        scene, torques = zoo.load(name, dt)
+    for dt, scene in scenes.items():
         steps = round(settings.duration / dt)
         every = round(dt / finest)
         truth = None if reference is None else reference[every - 1:samples:every]

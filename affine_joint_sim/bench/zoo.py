@@ -73,20 +73,22 @@ def urdf_path(name: str) -> Path:
     return root / ROBOTS[name].path
 
 
-def load(name: str, dt: float):
-    """(scene at ``dt`` in its pose, torques per scene joint) of case ``name``."""
+def load(name: str, dts) -> tuple[dict, np.ndarray]:
+    """({dt: scene at dt in its pose} for each of ``dts`` [s], torques per scene joint) of
+    case ``name``; the torques do not depend on dt."""
     from affine_joint_sim.bench.references import RigidTree
     from affine_joint_sim.scene import Scene
 
     path = urdf_path(name)
     pose = {j.name: _inside(j.limit) for j in Scene.from_urdf(path).joints}
-    scene = Scene.from_urdf(path, dt=dt, initial_positions=pose)
+    scenes = {dt: Scene.from_urdf(path, dt=dt, initial_positions=pose) for dt in dts}
+    scene = scenes[dts[0]]
     tree = RigidTree(scene)
     start = np.array([j.initial_position for j in scene.joints])
     still = np.zeros(len(start))
     mass = tree.mass_matrix(start)
     gravity_load = -mass @ tree.acceleration(start, still, still)     # h(q0)
-    return scene, gravity_load + mass @ np.full(len(start), PUSH)
+    return scenes, gravity_load + mass @ np.full(len(start), PUSH)
 
 
 def _inside(limit) -> float:

@@ -33,14 +33,14 @@ RESOLUTION = 1.0e3       # rounding units the smallest second moment keeps above
 def body_rigidity(scene, props) -> np.ndarray:
     """κ v̄ [J] per body of ``scene`` (``props``: its bodies' MassProperties)."""
     volume = np.array([p.volume for p in props])
-    given = np.array([math.nan if b.kappa is None else b.kappa for b in scene.bodies])
     load = _largest_moments(scene, props)
     eps = np.finfo(np.float32 if scene.solver.precision == 'float32' else np.float64).eps
     smallest = np.array([p.second_moment.min() for p in props])
     resolved = smallest / (8.0 * (scene.dt * scene.dt) * eps * RESOLUTION)
     auto = np.maximum(DEFAULT_KAPPA * volume,
                       np.minimum(load / (8.0 * TARGET_STRAIN), resolved))
-    return np.where(np.isnan(given), auto, np.nan_to_num(given) * volume)
+    return np.array([rigid if b.kappa is None else b.kappa * v
+                     for b, v, rigid in zip(scene.bodies, volume, auto)])
 
 
 def _largest_moments(scene, props) -> np.ndarray:
