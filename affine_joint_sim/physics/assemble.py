@@ -23,6 +23,7 @@ def build(t) -> SimpleNamespace:
     affine, mass_times, add_mass = t.affine, t.mass_times, t.add_mass
     ortho_gradient, add_ortho_hessian = t.ortho_gradient, t.add_ortho_hessian
     joint_gradients, joint_state_blocks = t.joint_gradients, t.joint_state_blocks
+    joint_is_nonlinear = t.joint_is_nonlinear
     joint_coordinate, joint_coordinate_gradients = (t.joint_coordinate,
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
@@ -68,7 +69,7 @@ def build(t) -> SimpleNamespace:
         without ``hessian``). Returns 1 if the joint's limit is entered at q or was at the
         last factorization (its stiffness then changed since: the last factors cannot be
         trusted for this gradient), else 0."""
-        if hessian != 0:
+        if hessian != 0 and joint_is_nonlinear(model, k) != 0:
             h_pp, h_pc, h_cc, has = joint_state_blocks(model, q, env, k)
             if has != 0:
                 add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
@@ -91,9 +92,10 @@ def build(t) -> SimpleNamespace:
                 d2 += change
             if d1 != zero or d2 != zero:     # e.g. an inactive limit alone costs no blocks
                 x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
+                y_parent = d2 * x_parent
                 add_blocks(model, scratch, env, k, d1 * x_parent, d1 * x_child,
-                           d2 * wp.outer(x_parent, x_parent), d2 * wp.outer(x_parent, x_child),
-                           d2 * wp.outer(x_child, x_child))
+                           wp.outer(y_parent, x_parent), wp.outer(y_parent, x_child),
+                           wp.outer(d2 * x_child, x_child))
         return untrusted
 
     @wp.func
@@ -116,7 +118,8 @@ def build(t) -> SimpleNamespace:
                                     + ortho * ortho_gradient(a))
             if hessian != 0:
                 scratch.hessian[env, b] = add_ortho_hessian(
-                    add_mass(model.body_joint_hessian[b], m, s, kinetic_scale), ortho, a)
+                    add_mass(model.body_joint_hessian[b], m, s, kinetic_scale), ortho, a,
+                    kinetic_scale * wp.min(wp.min(s[0], s[1]), s[2]))
                 if model.state_coupling != 0:
                     scratch.offdiag[env, b] = model.elim_offdiag[b]
         untrusted = int(0)

@@ -132,6 +132,7 @@ FIELDS = _fields('model', [
     ('velocity', 'vec12', EB, 'm/s, 1/s', 'velocity of the candidate end-of-step state'),
     ('hessian', 'mat12', EB, 'kg', 'diagonal Hessian blocks of the current iterate'),
     ('factor', 'mat12', EB, 'kg^½', 'Cholesky factors of the tree solve'),
+    ('pivot_inverse', 'vec12', EB, 'kg^-½', '1 / the diagonal of each Cholesky factor'),
     ('offdiag', 'mat12', EB, 'kg', 'H[b, elim_parent[b]] of the current iterate (when the '
      'model has state_coupling)'),
     ('coupling', 'mat12', EB, 'kg^½', 'L⁻¹ H[b, parent] of the tree solve'),

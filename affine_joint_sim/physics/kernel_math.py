@@ -7,8 +7,9 @@ transcendental functions. Both vary between machines: the C library picks its si
 by CPU features, and LLVM fuses a product and a sum into one FMA (one rounding instead of two)
 wherever the host has FMA, in places that depend on how it vectorizes for that host. Here
 sin and atan2 are built from +, −, ×, ÷ and √ (the algorithms and coefficients of
-``affine_joint_sim.portable_math``), and ``KERNEL_OPTIONS`` turns FMA off while keeping the
-host's vector width: vector lanes round exactly like scalars, so only fusion changed bits.
+``affine_joint_sim.portable_math``), and ``kernel_options`` turns contraction off while
+keeping the host's vector width: vector lanes round exactly like scalars, so only fusion
+changed bits. The fma() that Warp's matrix products call is rounded once on every machine.
 """
 
 import hashlib
@@ -22,16 +23,18 @@ from affine_joint_sim.portable_math import (ATAN_COEFFICIENTS, COS_COEFFICIENTS,
 
 __all__ = ['build', 'kernel_options', 'source_salt']
 
-# LLVM target features that would let the compiler fuse a·b + c (FMA3 and AMD's FMA4).
-_NO_FUSION = '-target-feature -fma -target-feature -fma4'
+# No contraction of a·b + c into one FMA by the front end (Warp's fuse_fp=False stops the back
+# end): an FMA only where the code asks for one (fma(), which is exactly rounded everywhere).
+_NO_FUSION = '-ffp-contract=off'
 
 
 def kernel_options() -> dict:
     """Warp module options of every kernel module: Warp's CPU compiler flags (the global
-    setting: by default ``-march=native`` and its inlining and SLP options) without FMA."""
+    setting: by default ``-march=native`` and its inlining and SLP options) without FMA
+    contraction."""
     flags = wp.config.cpu_compiler_flags
     flags = '-march=native' if flags is None else flags
-    return {'cpu_compiler_flags': f'{flags} {_NO_FUSION}'.strip()}
+    return {'cpu_compiler_flags': f'{flags} {_NO_FUSION}'.strip(), 'fuse_fp': False}
 
 
 def source_salt() -> int:

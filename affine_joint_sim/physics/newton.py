@@ -25,7 +25,7 @@ def build(t) -> SimpleNamespace:
     """Warp functions of the Newton loop for the types namespace ``t``."""
     mat33, vec3, vec12, scalar = t.mat33, t.vec3, t.vec12, t.scalar
     zero, half, one, two = t.zero, t.half, t.one, t.two
-    affine, ortho_energy, svd, mass_times = t.affine, t.ortho_energy, t.svd, t.mass_times
+    affine, ortho_energy, polar, mass_times = t.affine, t.ortho_energy, t.polar, t.mass_times
     sin = t.sin
     rigid_strain, roundoff = t.rigid_strain, t.energy_roundoff
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
@@ -34,12 +34,6 @@ def build(t) -> SimpleNamespace:
     assemble, solve_tree, solve_factored = t.assemble, t.solve_tree, t.solve_factored
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
     incremental_potential = t.incremental_potential
-
-    @wp.func
-    def polar(a: mat33):
-        """(R, S) of the polar decomposition A = R S (R = U Vᵀ, S = V Σ Vᵀ of A = U Σ Vᵀ)."""
-        u, sigma, v = svd(a)
-        return u @ wp.transpose(v), v @ wp.diag(sigma) @ wp.transpose(v)
 
     @wp.func
     def warm_start(q_tilde: vec12, q_n: vec12):

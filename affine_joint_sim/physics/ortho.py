@@ -1,23 +1,30 @@
-"""Orthogonality potential ‖AAᵀ − I‖²: energy, gradient, PSD Hessian.
+"""Orthogonality potential ‖AAᵀ − I‖²: energy, gradient, Newton's PSD Hessian.
 
-Values are per unit κ·v̄; the incremental potential scales them by dt²·κ·v̄. The PSD Hessian
-is the closed-form eigensystem of one 3×3 SVD, negative modes dropped, added scaled into a
-given 12×12 block (no 12×12 temporary of its own). docs/physics.md#orthogonality-potential
-gives the eigensystem.
+Values are per unit κ·v̄; the incremental potential scales them by dt²·κ·v̄. Newton's
+Hessian is the Gauss–Newton one (closed form, no SVD) where the term it drops is small
+against the body's inertia, else the PSD projection of the exact one (one SVD), added scaled
+into a given 12×12 block (no 12×12 temporary of its own); docs/physics.md#orthogonality-potential
+compares their eigensystems.
 """
 
+import math
 from types import SimpleNamespace
 
 import warp as wp
 
-__all__ = ['build']
+__all__ = ['GAUSS_NEWTON_SHARE', 'build']
+
+# the largest share of a body's inertia that the term the Gauss–Newton Hessian drops may reach
+GAUSS_NEWTON_SHARE = 0.1
 
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the orthogonality potential for the types namespace ``t``."""
     vec3, mat33, mat12, scalar = t.vec3, t.mat33, t.mat12, t.scalar
-    zero, four, inv_sqrt2 = t.zero, t.four, t.inv_sqrt2
+    zero, four = t.zero, t.four
+    inv_sqrt2 = scalar(1.0 / math.sqrt(2.0))
     affine_part, svd = t.affine_part, t.svd
+    gauss_newton_share = scalar(GAUSS_NEWTON_SHARE)
 
     @wp.func
     def ortho_energy(a: mat33):
@@ -57,7 +64,7 @@ def build(t) -> SimpleNamespace:
         return add_mode(out, scale, four * (si * si + si * sj + sj * sj) - four, flip)
 
     @wp.func
-    def add_ortho_hessian(h: mat12, scale: scalar, a: mat33):
+    def add_projected_hessian(h: mat12, scale: scalar, a: mat33):
         """h + scale · (PSD projection of ∇²‖AAᵀ−I‖²), from the closed-form eigensystem of
         one 3×3 SVD."""
         u, sigma, v = svd(a)
@@ -70,6 +77,35 @@ def build(t) -> SimpleNamespace:
         out = add_pair_modes(out, scale, u, sigma, v, 0, 1)
         out = add_pair_modes(out, scale, u, sigma, v, 0, 2)
         return add_pair_modes(out, scale, u, sigma, v, 1, 2)
+
+    @wp.func
+    def add_gauss_newton_hessian(h: mat12, scale: scalar, a: mat33):
+        """h + scale · 2 JᵀJ on the affine block, J the derivative of C = AAᵀ − I: the
+        Gauss–Newton Hessian of ‖C‖², PSD by construction, without the term 4 C dA. With
+        G = AᵀA, the entry of A[r, c] and A[s, k] is 4 (δ_rs G[k, c] + A[r, k] A[s, c])."""
+        g = wp.transpose(a) @ a
+        out = h
+        for r in range(3):
+            for c in range(3):
+                i = 3 + 3 * r + c
+                for s in range(3):
+                    for k in range(3):
+                        entry = a[r, k] * a[s, c]
+                        if r == s:
+                            entry += g[k, c]
+                        out[i, 3 + 3 * s + k] += scale * four * entry
+        return out
+
+    @wp.func
+    def add_ortho_hessian(h: mat12, scale: scalar, a: mat33, inertia: scalar):
+        """h + scale · a PSD Hessian of ‖AAᵀ−I‖²: the Gauss–Newton one where the term it drops,
+        4 (AAᵀ − I) dA, is below GAUSS_NEWTON_SHARE of ``inertia`` (the body's smallest
+        inertial diagonal entry, kinetic scale × smallest second moment [kg·m²]) in every
+        direction, else the PSD projection of the exact one (one SVD)
+        (docs/physics.md#orthogonality-potential)."""
+        if four * scale * wp.sqrt(ortho_energy(a)) <= gauss_newton_share * inertia:
+            return add_gauss_newton_hessian(h, scale, a)
+        return add_projected_hessian(h, scale, a)
 
     return SimpleNamespace(ortho_energy=ortho_energy, ortho_gradient=ortho_gradient,
                            add_ortho_hessian=add_ortho_hessian)

@@ -27,10 +27,11 @@ def types_for(scalar) -> SimpleNamespace:
         mat33=wp.types.matrix(shape=(3, 3), dtype=scalar),
         vec12=wp.types.vector(length=12, dtype=scalar),
         mat12=wp.types.matrix(shape=(12, 12), dtype=scalar),
+        # six gradient rows of one body (a prismatic joint's axis residuals)
+        mat6x12=wp.types.matrix(shape=(6, 12), dtype=scalar),
         zero=scalar(0.0), half=scalar(0.5), one=scalar(1.0), two=scalar(2.0),
         three=scalar(3.0), four=scalar(4.0),
         pi=scalar(math.pi), two_pi=scalar(2.0 * math.pi),
-        inv_sqrt2=scalar(1.0 / math.sqrt(2.0)),
         # relative rounding of a sum of energy terms: the line search's "no increase"
         energy_roundoff=scalar(64.0 * eps),
         # one rounding unit (machine ε)

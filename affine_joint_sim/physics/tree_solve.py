@@ -16,14 +16,17 @@ def build(t) -> SimpleNamespace:
     """Warp functions of the tree solve for the types namespace ``t``."""
     vec12, mat12 = t.vec12, t.mat12
     Model, Scratch = t.structs.Model, t.structs.Scratch
-    pivot_floor, zero = t.pivot_floor, t.zero
+    pivot_floor, zero, one = t.pivot_floor, t.zero, t.one
 
     @wp.func
     def cholesky(a: mat12):
-        """Lower factor L of a symmetric positive (semi)definite 12×12 matrix (a = L Lᵀ). A
-        pivot below pivot_floor × the largest diagonal entry (a direction singular to rounding,
-        or made so by a Schur complement's cancellation) is raised to it."""
+        """(L, 1/diag(L)): the lower factor of a symmetric positive (semi)definite 12×12 matrix
+        (a = L Lᵀ) and its inverse pivots, which the solves multiply by (a division's latency
+        sits on their critical path). A pivot below pivot_floor × the largest diagonal entry
+        (a direction singular to rounding, or made so by a Schur complement's cancellation) is
+        raised to it."""
         low = mat12()
+        inverse = vec12()
         floor = zero
         for j in range(12):
             floor = wp.max(floor, wp.abs(a[j, j]))
@@ -34,46 +37,46 @@ def build(t) -> SimpleNamespace:
                 s -= low[j, k] * low[j, k]
             d = wp.sqrt(wp.max(s, floor))
             low[j, j] = d
+            inverse[j] = one / d
             for i in range(j + 1, 12):
                 r = a[i, j]
                 for k in range(j):
                     r -= low[i, k] * low[j, k]
-                low[i, j] = r / d
-        return low
+                low[i, j] = r * inverse[j]
+        return low, inverse
 
     @wp.func
-    def forward_solve(low: mat12, b: vec12):
-        """y = L⁻¹ b."""
+    def forward_solve(low: mat12, inverse: vec12, b: vec12):
+        """y = L⁻¹ b (``inverse``: 1/diag(L))."""
         y = vec12()
         for i in range(12):
             r = b[i]
             for k in range(i):
                 r -= low[i, k] * y[k]
-            y[i] = r / low[i, i]
+            y[i] = r * inverse[i]
         return y
 
     @wp.func
-    def backward_solve(low: mat12, y: vec12):
-        """x = L⁻ᵀ y."""
+    def backward_solve(low: mat12, inverse: vec12, y: vec12):
+        """x = L⁻ᵀ y (``inverse``: 1/diag(L))."""
         x = vec12()
         for ii in range(12):
             i = 11 - ii
             r = y[i]
             for k in range(i + 1, 12):
                 r -= low[k, i] * x[k]
-            x[i] = r / low[i, i]
+            x[i] = r * inverse[i]
         return x
 
     @wp.func
-    def forward_solve_matrix(low: mat12, b: mat12):
-        """W = L⁻¹ B."""
+    def forward_solve_matrix(low: mat12, inverse: vec12, b: mat12):
+        """W = L⁻¹ B, row by row (each row of W a vector operation)."""
         w = mat12()
-        for c in range(12):
-            for i in range(12):
-                r = b[i, c]
-                for k in range(i):
-                    r -= low[i, k] * w[k, c]
-                w[i, c] = r / low[i, i]
+        for i in range(12):
+            r = b[i]
+            for k in range(i):
+                r -= low[i, k] * w[k]
+            w[i] = r * inverse[i]
         return w
 
     @wp.func
@@ -103,21 +106,23 @@ def build(t) -> SimpleNamespace:
     def factor_tree(model: Model, scratch: Scratch, env: int):
         """Factor H from the blocks scratch.hessian (diagonal) and model.elim_offdiag or, with
         state_coupling, scratch.offdiag (coupling to the tree parent): each body's lower factor
-        into scratch.factor, its L⁻¹·coupling into scratch.coupling."""
+        into scratch.factor (its inverse pivots into scratch.pivot_inverse), its L⁻¹·coupling
+        into scratch.coupling."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
             b = model.elim_order[k]
             scratch.factor[env, b] = scratch.hessian[env, b]
         for k in range(n_free):
             b = model.elim_order[k]
-            low = cholesky(scratch.factor[env, b])
+            low, inverse = cholesky(scratch.factor[env, b])
             scratch.factor[env, b] = low
+            scratch.pivot_inverse[env, b] = inverse
             p = model.elim_parent[b]
             if p >= 0:
                 off = model.elim_offdiag[b]
                 if model.state_coupling != 0:
                     off = scratch.offdiag[env, b]
-                w = forward_solve_matrix(low, off)
+                w = forward_solve_matrix(low, inverse, off)
                 scratch.coupling[env, b] = w
                 scratch.factor[env, p] = subtract_gram(scratch.factor[env, p], w)
 
@@ -130,7 +135,8 @@ def build(t) -> SimpleNamespace:
             scratch.forward[env, b] = scratch.rhs[env, b]
         for k in range(n_free):
             b = model.elim_order[k]
-            y = forward_solve(scratch.factor[env, b], scratch.forward[env, b])
+            y = forward_solve(scratch.factor[env, b], scratch.pivot_inverse[env, b],
+                              scratch.forward[env, b])
             scratch.forward[env, b] = y
             p = model.elim_parent[b]
             if p >= 0:
@@ -142,7 +148,8 @@ def build(t) -> SimpleNamespace:
             p = model.elim_parent[b]
             if p >= 0:
                 r = r - scratch.coupling[env, b] @ scratch.dq[env, p]
-            scratch.dq[env, b] = backward_solve(scratch.factor[env, b], r)
+            scratch.dq[env, b] = backward_solve(scratch.factor[env, b],
+                                                scratch.pivot_inverse[env, b], r)
 
     @wp.func
     def solve_tree(model: Model, scratch: Scratch, env: int):

@@ -65,6 +65,8 @@ def build(t) -> SimpleNamespace:
 
     # 1 if joint k's coordinate is an angle (a revolute joint's)
     joint_is_periodic = per_type([int(kind.periodic) for kind in JOINT_KINDS])
+    # 1 if joint k's constraint is not linear in q (it has state blocks: a prismatic joint's)
+    joint_is_nonlinear = per_type([int(not kind.linear) for kind in JOINT_KINDS])
     # 1 if joint k takes a torque or force command (a weld takes none)
     joint_takes_command = per_type([int(kind.command is not None) for kind in JOINT_KINDS])
 
@@ -188,4 +190,5 @@ def build(t) -> SimpleNamespace:
                            joint_step_aliases=joint_step_aliases,
                            joint_coordinate_gradients=joint_coordinate_gradients,
                            joint_takes_command=joint_takes_command,
+                           joint_is_nonlinear=joint_is_nonlinear,
                            joint_apply_command=joint_apply_command)

@@ -19,7 +19,7 @@ __all__ = ['build', 'linear_pairs', 'nonlinear_residuals']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the prismatic joint for the types namespace ``t``."""
-    vec3, vec12, mat12, scalar = t.vec3, t.vec12, t.mat12, t.scalar
+    vec3, vec12, mat6x12, scalar = t.vec3, t.vec12, t.mat6x12, t.scalar
     half, one = t.half, t.one
     Model, Scratch = t.structs.Model, t.structs.Scratch
     affine, world_point, jacobian_transpose = t.affine, t.world_point, t.jacobian_transpose
@@ -92,15 +92,17 @@ def build(t) -> SimpleNamespace:
         """Gauss–Newton blocks (H_PP, H_PC, H_CC, 1) of the axis terms."""
         delta, tp, tc = frame(model, qp, qc, k)
         stiffness = model.joint_stiffness[k]
-        h_pp = mat12()
-        h_pc = mat12()
-        h_cc = mat12()
+        rows_p = mat6x12()      # ∇_P of C0's three components, then of C1's
+        rows_c = mat6x12()
         for r in range(3):
             g0p, g0c, g1p, g1c = axis_rows(model, delta, tp, tc, k, r)
-            h_pp += stiffness * (wp.outer(g0p, g0p) + wp.outer(g1p, g1p))
-            h_pc += stiffness * (wp.outer(g0p, g0c) + wp.outer(g1p, g1c))
-            h_cc += stiffness * (wp.outer(g0c, g0c) + wp.outer(g1c, g1c))
-        return h_pp, h_pc, h_cc, int(1)
+            rows_p[r] = g0p
+            rows_p[3 + r] = g1p
+            rows_c[r] = g0c
+            rows_c[3 + r] = g1c
+        stiff_p = wp.transpose(stiffness * rows_p)
+        return (stiff_p @ rows_p, stiff_p @ rows_c,
+                wp.transpose(stiffness * rows_c) @ rows_c, int(1))
 
     @wp.func
     def gap(model: Model, qp: vec12, qc: vec12, k: int):
