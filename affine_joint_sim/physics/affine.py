@@ -10,6 +10,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim import portable_math as pm
+
 __all__ = ['POLAR_ITERATIONS', 'build']
 
 POLAR_ITERATIONS = 12    # Newton iterations of ``polar`` at most (it stops when converged)
@@ -21,6 +23,8 @@ def build(t) -> SimpleNamespace:
     zero, half = t.zero, t.half
     polar_iterations = POLAR_ITERATIONS
     polar_tolerance = scalar(math.sqrt(4.0 * float(t.unit_roundoff)))   # δ with δ² = 4 ε_p
+    stretch_series = scalar(pm.cbrt(0.5 * float(t.unit_roundoff)))     # portable cube root
+    eighth = scalar(0.125)
 
     @wp.func
     def affine(q: vec12):
@@ -106,6 +110,22 @@ def build(t) -> SimpleNamespace:
         return r, half * (s + wp.transpose(s))
 
     @wp.func
+    def stretch(a: mat33):
+        """S of the polar decomposition A = R S. For a near-rotation (every entry of
+        E = AᵀA − I within the cube root of half a rounding unit) the series S = I + E/2 − E²/8,
+        whose first dropped term E³/16 is below rounding; otherwise from ``polar``."""
+        identity = wp.identity(n=3, dtype=scalar)
+        e = wp.transpose(a) @ a - identity
+        size = zero
+        for i in range(3):
+            for j in range(3):
+                size = wp.max(size, wp.abs(e[i, j]))
+        out = identity + half * e - eighth * (e @ e)
+        if size > stretch_series:
+            r, out = polar(a)
+        return out
+
+    @wp.func
     def mass_times(m: scalar, s: vec3, x: vec12):
         """M x with M = blockdiag(m I3, S, S, S), S = diag(s) (COM-centred rest frame)."""
         return vec12(m * x[0], m * x[1], m * x[2], s[0] * x[3], s[1] * x[4], s[2] * x[5],
@@ -127,4 +147,5 @@ def build(t) -> SimpleNamespace:
                            translation_part=translation_part, affine_part=affine_part,
                            direction_jacobian_transpose=direction_jacobian_transpose,
                            couple_acceleration=couple_acceleration, svd=svd, polar=polar,
+                           stretch=stretch,
                            mass_times=mass_times, add_mass=add_mass)

@@ -17,7 +17,7 @@ __all__ = ['build']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the assembly for the types namespace ``t``."""
-    vec12, mat12, scalar, zero = t.vec12, t.mat12, t.scalar, t.zero
+    vec12, mat12, scalar, zero, half = t.vec12, t.mat12, t.scalar, t.zero, t.half
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     affine, mass_times, add_mass = t.affine, t.mass_times, t.add_mass
@@ -119,7 +119,8 @@ def build(t) -> SimpleNamespace:
             if hessian != 0:
                 scratch.hessian[env, b] = add_ortho_hessian(
                     add_mass(model.body_joint_hessian[b], m, s, kinetic_scale), ortho, a,
-                    kinetic_scale * wp.min(wp.min(s[0], s[1]), s[2]))
+                    half * kinetic_scale * (s[0] + s[1] + s[2] - wp.max(wp.max(s[0], s[1]),
+                                                                       s[2])))
                 if model.state_coupling != 0:
                     scratch.offdiag[env, b] = model.elim_offdiag[b]
         untrusted = int(0)

@@ -27,7 +27,7 @@ def build(t) -> SimpleNamespace:
     affine, ortho_energy = t.affine, t.ortho_energy
     pi, two_pi = t.pi, t.two_pi
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
-    joint_coordinate_step, joint_raw_coordinate = t.joint_coordinate_step, t.joint_raw_coordinate
+    joint_increment, joint_raw_coordinate = t.joint_increment, t.joint_raw_coordinate
     joint_gap, joint_step_aliases = t.joint_gap, t.joint_step_aliases
     s_iterations, s_halvings, s_converged = (_I['newton_iterations'],
                                              _I['line_search_halvings'], _I['converged'])
@@ -75,12 +75,14 @@ def build(t) -> SimpleNamespace:
         return finite
 
     @wp.func
-    def aliasing(model: Model, state: State, env: int):
-        """1 if a joint turned more than 0.9π since the last committed coordinate."""
+    def aliasing(model: Model, state: State, scratch: Scratch, env: int):
+        """1 if a joint turned more than 0.9π since the last committed coordinate; each joint's
+        raw coordinate of the Newton result into scratch.joint_raw (for ``commit``)."""
         aliased = int(0)
         for k in range(model.joint_parent.shape[0]):
-            step = joint_coordinate_step(model, state.q, env, k,
-                                         state.joint_coordinate[env, k])
+            raw = joint_raw_coordinate(model, state.q, env, k)
+            scratch.joint_raw[env, k] = raw
+            step = joint_increment(model, k, raw, state.joint_coordinate[env, k])
             aliased = aliased | joint_step_aliases(model, k, step)
         return aliased
 
@@ -97,21 +99,21 @@ def build(t) -> SimpleNamespace:
             state.history_ready[env] = 1
         for k in range(model.joint_parent.shape[0]):
             previous = state.joint_coordinate[env, k]
-            delta = joint_coordinate_step(model, state.q, env, k, previous)
+            raw = scratch.joint_raw[env, k]
+            delta = joint_increment(model, k, raw, previous)
             state.joint_coordinate_prev[env, k] = previous
             state.joint_coordinate[env, k] = previous + delta
             state.joint_velocity[env, k] = delta / model.dt
             if model.joint_angle_mode[k] == CONTINUOUS:
                 state.joint_position[env, k] = previous + delta
             else:
-                state.joint_position[env, k] = wrap_angle(
-                    joint_raw_coordinate(model, state.q, env, k))
+                state.joint_position[env, k] = wrap_angle(raw)
 
     @wp.func
     def finish(model: Model, state: State, scratch: Scratch, env: int, bdf2: int):
         """Commit or reject the step. Returns (finite, aliased, rejected)."""
         finite = candidate_velocities(model, state, scratch, env, bdf2)
-        aliased = aliasing(model, state, env)
+        aliased = aliasing(model, state, scratch, env)
         rejected = int(0)
         if finite == 0 or aliased != 0:
             rejected = 1

@@ -136,6 +136,8 @@ FIELDS = _fields('model', [
     ('offdiag', 'mat12', EB, 'kg', 'H[b, elim_parent[b]] of the current iterate (when the '
      'model has state_coupling)'),
     ('coupling', 'mat12', EB, 'kg^½', 'L⁻¹ H[b, parent] of the tree solve'),
+    ('joint_raw', 'scalar', EJ, 'rad | m', 'raw coordinate of each joint at the Newton result '
+     '(joint_raw_coordinate), for the commit'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])

@@ -26,6 +26,7 @@ def build(t) -> SimpleNamespace:
     mat33, vec3, vec12, scalar = t.mat33, t.vec3, t.vec12, t.scalar
     zero, half, one, two = t.zero, t.half, t.one, t.two
     affine, ortho_energy, polar, mass_times = t.affine, t.ortho_energy, t.polar, t.mass_times
+    stretch = t.stretch
     sin = t.sin
     rigid_strain, roundoff = t.rigid_strain, t.energy_roundoff
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
@@ -46,8 +47,7 @@ def build(t) -> SimpleNamespace:
         if strain <= rigid_strain or strain <= two * ortho_energy(a_n):
             return q_tilde
         r, s_tilde = polar(a)
-        r_n, s_n = polar(a_n)
-        m = r @ s_n
+        m = r @ stretch(a_n)
         return vec12(q_tilde[0], q_tilde[1], q_tilde[2], m[0, 0], m[0, 1], m[0, 2],
                      m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
 

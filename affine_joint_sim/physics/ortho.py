@@ -99,10 +99,11 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def add_ortho_hessian(h: mat12, scale: scalar, a: mat33, inertia: scalar):
         """h + scale · a PSD Hessian of ‖AAᵀ−I‖²: the Gauss–Newton one where the term it drops,
-        4 (AAᵀ − I) dA, is below GAUSS_NEWTON_SHARE of ``inertia`` (the body's smallest
-        inertial diagonal entry, kinetic scale × smallest second moment [kg·m²]) in every
-        direction, else the PSD projection of the exact one (one SVD)
-        (docs/physics.md#orthogonality-potential)."""
+        4 (AAᵀ − I) dA, is below GAUSS_NEWTON_SHARE of ``inertia`` in every direction, else
+        the PSD projection of the exact one (one SVD). ``inertia`` [kg·m²] is the body's
+        smallest inertial curvature along a turn per unit ‖dA‖²_F: the kinetic scale times half
+        its smallest principal moment of inertia; along other directions the Hessian is
+        about 8·scale, far above the dropped term (docs/physics.md#orthogonality-potential)."""
         if four * scale * wp.sqrt(ortho_energy(a)) <= gauss_newton_share * inertia:
             return add_gauss_newton_hessian(h, scale, a)
         return add_projected_hessian(h, scale, a)

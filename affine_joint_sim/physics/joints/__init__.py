@@ -137,14 +137,21 @@ def build(t) -> SimpleNamespace:
         return out + model.joint_initial_position[k]
 
     @wp.func
-    def joint_coordinate_step(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int,
-                              previous: scalar):
-        """Δx from the last committed coordinate ``previous`` to the state q; an angle's Δθ is
-        taken in (−π, π] (multi-turn unwrap, docs/physics.md#joint-coordinate)."""
-        delta = joint_raw_coordinate(model, q, env, k) - previous
+    def joint_increment(model: Model, k: int, raw: scalar, previous: scalar):
+        """Δx from the last committed coordinate ``previous`` to the raw coordinate ``raw`` of
+        joint k (``joint_raw_coordinate``); an angle's Δθ is taken in (−π, π] (multi-turn
+        unwrap, docs/physics.md#joint-coordinate)."""
+        delta = raw - previous
         if joint_is_periodic(model, k) == 1:
             delta = delta - two_pi * wp.round(delta / two_pi)
         return delta
+
+    @wp.func
+    def joint_coordinate_step(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int,
+                              previous: scalar):
+        """Δx from the last committed coordinate ``previous`` to the state q
+        (``joint_increment``)."""
+        return joint_increment(model, k, joint_raw_coordinate(model, q, env, k), previous)
 
     @wp.func
     def joint_step_aliases(model: Model, k: int, step: scalar):
@@ -186,6 +193,7 @@ def build(t) -> SimpleNamespace:
     return SimpleNamespace(joint_energy=joint_energy, joint_gradients=joint_gradients,
                            joint_state_blocks=joint_state_blocks, joint_gap=joint_gap,
                            joint_raw_coordinate=joint_raw_coordinate,
+                           joint_increment=joint_increment,
                            joint_coordinate_step=joint_coordinate_step,
                            joint_step_aliases=joint_step_aliases,
                            joint_coordinate_gradients=joint_coordinate_gradients,
