@@ -9,7 +9,6 @@ generalized forces (``qfrc_applied``) per joint, in the scene's joint order.
 """
 
 import re
-import time
 
 import numpy as np
 
@@ -48,10 +47,9 @@ class MujocoRobot:
         self.dof = model.jnt_dofadr[joints]         # their generalized forces
         self.start = np.array([j.initial_position for j in scene.joints])
 
-    def run(self, torques, dt: float, integrator: str, steps: int, every: int = 1):
-        """(joint coordinates every ``every`` steps, shape (steps // every, n_joints), wall
-        µs per mj_step) of ``steps`` steps of ``dt`` [s] with ``integrator`` ('euler' or
-        'rk4') under constant ``torques`` (scene joint order)."""
+    def _start(self, torques, dt: float, integrator: str):
+        """MjData at the start pose under constant ``torques`` (scene joint order), the model
+        set to ``dt`` [s] and ``integrator`` ('euler' or 'rk4')."""
         mujoco, model = self.mujoco, self.model
         model.opt.timestep = dt
         model.opt.integrator = (mujoco.mjtIntegrator.mjINT_RK4 if integrator == 'rk4'
@@ -59,11 +57,29 @@ class MujocoRobot:
         data = mujoco.MjData(model)
         data.qpos[self.index] = self.start
         data.qfrc_applied[self.dof] = torques
-        out, elapsed = [], 0.0
-        for k in range(steps // every):
-            begin = time.perf_counter()
+        return data
+
+    def run(self, torques, dt: float, integrator: str, steps: int, every: int = 1):
+        """Joint coordinates every ``every`` steps, shape (steps // every, n_joints), of
+        ``steps`` steps of ``dt`` [s] with ``integrator`` ('euler' or 'rk4') under constant
+        ``torques`` (scene joint order)."""
+        data = self._start(torques, dt, integrator)
+        out = []
+        for _ in range(steps // every):
             for _ in range(every):
-                mujoco.mj_step(model, data)
-            elapsed += time.perf_counter() - begin
+                self.mujoco.mj_step(self.model, data)
             out.append(data.qpos[self.index].copy())
-        return np.array(out), elapsed / max(steps, 1) * 1e6
+        return np.array(out)
+
+    def timer(self, torques, dt: float, integrator: str):
+        """(setup, run) for ``timing.interleaved_us``: setup starts a run as ``run`` does,
+        run is one mj_step."""
+        mujoco, model = self.mujoco, self.model
+        state = {}
+
+        def setup():
+            state['data'] = self._start(torques, dt, integrator)
+
+        def step():
+            mujoco.mj_step(model, state['data'])
+        return setup, step

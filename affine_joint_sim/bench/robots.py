@@ -11,6 +11,7 @@ line-search failures, joints that leave their limits where the reference does no
 time factor, and the largest joint error over the run of ours, MuJoCo Euler and MuJoCo RK4.
 """
 
+import statistics
 import sys
 from pathlib import Path
 from typing import NamedTuple
@@ -31,14 +32,15 @@ class Settings(NamedTuple):
     reference_dt: float  # s, MuJoCo RK4's step for the reference
 
 
-FULL = Settings((1e-3, 1e-2, 1e-4), 0.5, 5, 1e-5)
+FULL = Settings((1e-3, 1e-2, 1e-4), 0.5, 9, 1e-5)
 QUICK = Settings((1e-3, 1e-2), 0.1, 1, 1e-4)
 TIMED_STEPS = 500       # steps per timed run at most (dt 1e-4 runs 5000 for the error)
 
 
-def _ours(scene, torques, steps: int, repeats: int) -> dict:
-    """Our run of ``steps`` steps: coordinates every step and the counts, then the timing."""
-    from affine_joint_sim.bench.timing import median_us
+def _ours(scene, torques, steps: int) -> tuple[dict, dict]:
+    """Our run of ``steps`` steps (coordinates every step and the counts), and our contestants
+    for ``timing.interleaved_us``: 'ours' a step, 'loop' a control loop's turn (set_torques,
+    step, angles), each from the start after a reset."""
     from affine_joint_sim.stepper import Stepper
 
     sim = Stepper(scene)
@@ -51,7 +53,6 @@ def _ours(scene, torques, steps: int, repeats: int) -> dict:
         angles.append(sim.angles)
         iterations += int(sim.stats['newton_iterations'])
     totals = sim.problem_totals
-    timed = min(steps, TIMED_STEPS)
 
     def restart():
         sim.reset()
@@ -62,12 +63,24 @@ def _ours(scene, torques, steps: int, repeats: int) -> dict:
         sim.step()
         return sim.angles
 
-    return {'angles': np.array(angles), 'newton_iterations': iterations / steps,
-            'unconverged': totals['not_converged'],
-            'rejected': totals['non_finite'] + totals['angle_aliased'],
-            'line_search_failures': totals['line_search_failures'],
-            'us_per_step': median_us(sim.step, timed, repeats, setup=restart),
-            'loop_us': median_us(loop, timed, repeats, setup=restart)}
+    return ({'angles': np.array(angles), 'newton_iterations': iterations / steps,
+             'unconverged': totals['not_converged'],
+             'rejected': totals['non_finite'] + totals['angle_aliased'],
+             'line_search_failures': totals['line_search_failures']},
+            {'ours': (restart, sim.step), 'loop': (restart, loop)})
+
+
+def _timings(contestants: dict, steps: int, repeats: int) -> dict:
+    """µs per step of every contestant (median of its interleaved samples), and ×Euler: the
+    median over the repeats of our sample over MuJoCo Euler's of the same repeat."""
+    from affine_joint_sim.bench.timing import interleaved_us
+
+    samples = interleaved_us(contestants, min(steps, TIMED_STEPS), repeats)
+    out = {f'{name}_us': statistics.median(values) for name, values in samples.items()}
+    if 'euler' in samples:
+        out['vs_euler'] = statistics.median(
+            [a / b for a, b in zip(samples['ours'], samples['euler'])])
+    return out
 
 
 def _limit_exits(scene, ours: np.ndarray, reference: np.ndarray | None) -> int:
@@ -91,7 +104,7 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
     peer = reference = None
     if mujoco_urdf.available():
         peer = mujoco_urdf.MujocoRobot(zoo.urdf_path(name), scenes[finest])
-        reference, _ = peer.run(torques, settings.reference_dt, 'rk4',
+        reference = peer.run(torques, settings.reference_dt, 'rk4',
                                 round(settings.duration / settings.reference_dt),
                                 every=round(finest / settings.reference_dt))
     rows = []
@@ -99,18 +112,19 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
         steps = round(settings.duration / dt)
         every = round(dt / finest)
         truth = None if reference is None else reference[every - 1:samples:every]
-        ours = _ours(scene, torques, steps, settings.repeats)
+        ours, contestants = _ours(scene, torques, steps)
         row = {'robot': Path(name).stem, 'joints': len(scene.joints), 'dt': dt,
-               **{key: value for key, value in ours.items() if key != 'angles'},
-               'limit_exits': _limit_exits(scene, ours['angles'], truth),
-               'realtime': dt / (ours['us_per_step'] * 1e-6)}
+               **{key: value for key, value in ours.items() if key != 'angles'}}
         if peer is not None:
             row['error'] = float(np.abs(ours['angles'] - truth).max())
             for integrator in ('euler', 'rk4'):
-                coordinates, us = peer.run(torques, dt, integrator, steps)
+                coordinates = peer.run(torques, dt, integrator, steps)
                 row[f'{integrator}_error'] = float(np.abs(coordinates - truth).max())
-                row[f'{integrator}_us'] = us
-            row['vs_euler'] = ours['us_per_step'] / row['euler_us']
+                contestants[integrator] = peer.timer(torques, dt, integrator)
+        row.update(_timings(contestants, steps, settings.repeats))
+        row['us_per_step'] = row.pop('ours_us')
+        row['limit_exits'] = _limit_exits(scene, ours['angles'], truth)
+        row['realtime'] = dt / (row['us_per_step'] * 1e-6)
         rows.append(row)
     return rows
 
@@ -152,8 +166,9 @@ def run(results: Path, devices: list[str], settings: Settings, names=()) -> None
             f'{zoo.PUSH:g} rad/s² (m/s²) on every joint, from the same pose\n\n{peer}'
             f'Reference: MuJoCo RK4 at dt {settings.reference_dt:g}; errors: largest |q − q_ref| '
             'over every step and joint [rad | m]. µs: median of '
-            f'{settings.repeats} runs of up to {TIMED_STEPS} steps on one core; loop: '
-            'set_torques + step + angles.\n\n' + markdown_table(rows, COLUMNS) + '\n')
+            f'{settings.repeats} runs of up to {TIMED_STEPS} steps on one core, ours and '
+            "MuJoCo's timed in turn; × Euler: the median of the ratios of runs timed together; "
+            'loop: set_torques + step + angles.\n\n' + markdown_table(rows, COLUMNS) + '\n')
     publish(results, 'robots', text, rows)
 
 

@@ -6,7 +6,7 @@ Not a section itself. Warp is imported inside functions, so importing this modul
 import statistics
 import time
 
-__all__ = ['WarpCalls', 'measure_steps', 'median_us']
+__all__ = ['WarpCalls', 'interleaved_us', 'measure_steps', 'median_us']
 
 
 def median_us(run, calls: int, repeats: int, setup=None) -> float:
@@ -24,6 +24,25 @@ def median_us(run, calls: int, repeats: int, setup=None) -> float:
             run()
         samples.append((time.perf_counter() - start) / calls * 1e6)
     return statistics.median(samples)
+
+
+def interleaved_us(contestants: dict, calls: int, repeats: int) -> dict:
+    """Wall time per call [µs] of each contestant, ``repeats`` samples each, the contestants
+    timed in turn within every repeat (a burst of machine noise then falls on neighbouring
+    samples of all of them, and a ratio of samples from one repeat cancels it).
+
+    ``contestants`` maps a name to ``(setup, run)``: ``setup()`` runs untimed before each
+    sample, then ``calls`` calls of ``run()`` are timed. Returns {name: [µs per call, ...]}.
+    """
+    samples = {name: [] for name in contestants}
+    for _ in range(repeats):
+        for name, (setup, run) in contestants.items():
+            setup()
+            start = time.perf_counter()
+            for _ in range(calls):
+                run()
+            samples[name].append((time.perf_counter() - start) / calls * 1e6)
+    return samples
 
 
 def measure_steps(sim, commands: dict, steps: int, repeats: int) -> dict:

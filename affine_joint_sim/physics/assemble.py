@@ -5,7 +5,8 @@ The diagonal blocks are kinetic_scale·M + dt² κ v̄ ∇²‖AAᵀ−I‖² (P
 constant blocks. The coupling blocks of the tree are constant (model.elim_offdiag) unless the
 model has state_coupling: then they and the diagonal get each iteration the state-dependent
 Gauss–Newton blocks of prismatic axes and of limit, drive and damping terms, per environment
-(scratch.offdiag). Scenes without such terms pay nothing for them.
+(scratch.offdiag, for the blocks such a term touched this iteration: scratch.offdiag_set).
+Scenes without such terms pay nothing for them.
 """
 
 from types import SimpleNamespace
@@ -44,8 +45,8 @@ def build(t) -> SimpleNamespace:
     def add_blocks(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
                    g_child: vec12, h_pp: mat12, h_pc: mat12, h_cc: mat12):
         """Gradients into rhs (``add_gradients``), diagonal blocks into hessian and the coupling
-        block into offdiag (transposed when its slot belongs to the child) of joint k's free
-        bodies."""
+        block into offdiag (transposed when its slot belongs to the child; the first such block
+        of an iteration starts from the constant one) of joint k's free bodies."""
         add_gradients(model, scratch, env, k, g_parent, g_child)
         bp = model.joint_parent[k]
         bc = model.joint_child[k]
@@ -55,6 +56,9 @@ def build(t) -> SimpleNamespace:
             scratch.hessian[env, bc] += h_cc
         slot = model.joint_offdiag_body[k]
         if slot >= 0:
+            if scratch.offdiag_set[env, slot] == 0:     # first state term on this block
+                scratch.offdiag[env, slot] = model.elim_offdiag[slot]
+                scratch.offdiag_set[env, slot] = 1
             if model.joint_offdiag_child[k] != 0:
                 scratch.offdiag[env, slot] += wp.transpose(h_pc)
             else:
@@ -122,7 +126,7 @@ def build(t) -> SimpleNamespace:
                     half * kinetic_scale * (s[0] + s[1] + s[2] - wp.max(wp.max(s[0], s[1]),
                                                                        s[2])))
                 if model.state_coupling != 0:
-                    scratch.offdiag[env, b] = model.elim_offdiag[b]
+                    scratch.offdiag_set[env, b] = 0     # model.elim_offdiag until a term adds
         untrusted = int(0)
         for k in range(model.joint_parent.shape[0]):
             if model.joint_has_free[k] == 0:

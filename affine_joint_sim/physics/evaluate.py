@@ -122,8 +122,10 @@ class Stages:
         self._load(q, q_tilde)
         self._launch(NEWTON_SYSTEM)
         rhs, blocks = self.scratch.rhs.numpy()[0], self.scratch.hessian.numpy()[0]
-        offdiag = (self.scratch.offdiag.numpy()[0] if self.host.state_coupling
-                   else self.host.elim_offdiag)
+        offdiag = self.host.elim_offdiag
+        if self.host.state_coupling:     # the blocks a state term touched this iteration
+            touched = self.scratch.offdiag_set.numpy()[0] != 0
+            offdiag = np.where(touched[:, None, None], self.scratch.offdiag.numpy()[0], offdiag)
         dq = self.scratch.dq.numpy()[0]
         index = {b: i for i, b in enumerate(self.free)}
         hessian = np.zeros((12 * len(self.free),) * 2)

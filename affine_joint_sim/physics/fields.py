@@ -135,6 +135,8 @@ FIELDS = _fields('model', [
     ('pivot_inverse', 'vec12', EB, 'kg^-½', '1 / the diagonal of each Cholesky factor'),
     ('offdiag', 'mat12', EB, 'kg', 'H[b, elim_parent[b]] of the current iterate (when the '
      'model has state_coupling)'),
+    ('offdiag_set', 'int32', EB, '-', '1 if offdiag holds this iterate\'s block (a state term '
+     'added to it), 0 if the block is the constant elim_offdiag'),
     ('coupling', 'mat12', EB, 'kg^½', 'L⁻¹ H[b, parent] of the tree solve'),
     ('joint_raw', 'scalar', EJ, 'rad | m', 'raw coordinate of each joint at the Newton result '
      '(joint_raw_coordinate), for the commit'),

@@ -104,10 +104,10 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def factor_tree(model: Model, scratch: Scratch, env: int):
-        """Factor H from the blocks scratch.hessian (diagonal) and model.elim_offdiag or, with
-        state_coupling, scratch.offdiag (coupling to the tree parent): each body's lower factor
-        into scratch.factor (its inverse pivots into scratch.pivot_inverse), its L⁻¹·coupling
-        into scratch.coupling."""
+        """Factor H from the blocks scratch.hessian (diagonal) and model.elim_offdiag or, where
+        scratch.offdiag_set says so, scratch.offdiag (coupling to the tree parent): each body's
+        lower factor into scratch.factor (its inverse pivots into scratch.pivot_inverse), its
+        L⁻¹·coupling into scratch.coupling."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
             b = model.elim_order[k]
@@ -120,7 +120,7 @@ def build(t) -> SimpleNamespace:
             p = model.elim_parent[b]
             if p >= 0:
                 off = model.elim_offdiag[b]
-                if model.state_coupling != 0:
+                if model.state_coupling != 0 and scratch.offdiag_set[env, b] != 0:
                     off = scratch.offdiag[env, b]
                 w = forward_solve_matrix(low, inverse, off)
                 scratch.coupling[env, b] = w
