@@ -33,6 +33,13 @@ COS_COEFFICIENTS = tuple(float(Fraction((-1) ** n, math.factorial(2 * n)))
 ATAN_COEFFICIENTS = tuple(float(Fraction((-1) ** n, 2 * n + 1)) for n in range(1, 9))
 HALF_PI = float(_PI / 2)
 TAN_PI_8 = math.sqrt(2.0) - 1.0
+# log m = 2 artanh s = 2 (s + s³/3 + s⁵/5 + …), s = (m − 1)/(m + 1), |s| ≤ 3 − 2√2 for
+# m in [√½, √2): the first omitted term (s²⁵/25) is below 2⁻⁵³ of the result there
+LOG_COEFFICIENTS = tuple(float(Fraction(1, 2 * n + 1)) for n in range(1, 12))   # s² … s²²
+_LN2 = Decimal('0.693147180559945309417232121458176568075500134360255254120680009493393621')
+# ln 2 in two parts, the first with 32 bits so that k·LN2_HI is exact for |k| < 2²¹
+LN2_HI = float(Fraction(round(Fraction(_LN2) * 2 ** 32), 2 ** 32))
+LN2_LO = float(Fraction(_LN2) - Fraction(LN2_HI))
 
 
 def half_pi_parts(bits: int) -> tuple[float, float, float]:

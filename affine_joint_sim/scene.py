@@ -11,10 +11,13 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import yaml
-from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, PrivateAttr,
+from pydantic import (BaseModel, BeforeValidator, Field, PrivateAttr,
                       ValidationError, model_validator)
 
+from affine_joint_sim.contact_schema import Collision, Contact, Ground
 from affine_joint_sim.physics.joint_kinds import JOINT_KIND_NAMES, joint_kind
+from affine_joint_sim.schema_base import (Number, OneOf, PositiveFloat, StrictModel, Vec3,
+                                          not_a_boolean)
 
 __all__ = ['Scene', 'SceneSettings', 'SceneError', 'StrictModel', 'Body', 'Joint', 'Limit',
            'Drive', 'Shape', 'Solver', 'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh',
@@ -33,27 +36,8 @@ def topic_token(name: str) -> str:
     return '_' + token if token[0].isdigit() else token
 
 
-def _not_a_boolean(value):
-    if isinstance(value, bool):
-        raise ValueError('must be a number, not a boolean')
-    return value
-
-
-# YAML reads `true` as a boolean, which pydantic would take as 1.0: a number must be a number
-Number = Annotated[float, BeforeValidator(_not_a_boolean)]
-PositiveFloat = Annotated[Number, Field(gt=0.0)]
-Vec3 = tuple[Number, Number, Number]
-
-
 class SceneError(ValueError):
     """A scene that cannot be loaded; the message lists every problem with its key path."""
-
-
-class StrictModel(BaseModel):
-    """Base of every model read from a user's file (scenes, a URDF scene's overrides, sweep
-    specs): an unknown key, NaN or Inf is an error; a validated model is frozen."""
-
-    model_config = ConfigDict(extra='forbid', allow_inf_nan=False, frozen=True)
 
 
 class Cylinder(StrictModel):
@@ -69,24 +53,14 @@ class Sphere(StrictModel):
     radius: PositiveFloat
 
 
-class Shape(StrictModel):
+class Shape(OneOf):
     """Exactly one primitive: ``box`` (full side lengths [m]), ``cylinder`` or ``sphere``."""
 
     box: tuple[PositiveFloat, PositiveFloat, PositiveFloat] | None = None
     cylinder: Cylinder | None = None
     sphere: Sphere | None = None
 
-    @model_validator(mode='after')
-    def _exactly_one(self):
-        given = [k for k in ('box', 'cylinder', 'sphere') if getattr(self, k) is not None]
-        if len(given) != 1:
-            raise ValueError(f'give exactly one of box, cylinder, sphere (got {given or "none"})')
-        return self
-
-    @property
-    def kind(self) -> str:
-        """Primitive name: 'box', 'cylinder' or 'sphere'."""
-        return next(k for k in ('box', 'cylinder', 'sphere') if getattr(self, k) is not None)
+    KINDS = ('box', 'cylinder', 'sphere')
 
 
 class Orientation(StrictModel):
@@ -128,9 +102,14 @@ class Body(StrictModel):
     angular_velocity: Vec3 = (0.0, 0.0, 0.0)
     fixed: bool = False
     kappa: PositiveFloat | None = None    # Pa; None: from its joints' loads (physics.rigidity)
+    # what it touches with (README.md#contact): 'shape' (its own), or a list of geometries
+    collision: Literal['shape'] | list[Collision] | None = None
+    friction: Annotated[Number, Field(ge=0.0)] | None = None   # its own Coulomb μ
 
     @model_validator(mode='after')
     def _density_or_mass(self):
+        if self.collision == 'shape' and self.shape is None:
+            raise ValueError("collision: 'shape' needs a shape (or give a list of geometries)")
         if self.inertia is not None:
             if self.mass is None or self.density is not None:
                 raise ValueError('inertia needs mass [kg] (and no density)')
@@ -169,7 +148,7 @@ class Mesh(StrictModel):
     fallback: tuple[PositiveFloat, PositiveFloat, PositiveFloat] = (0.05, 0.05, 0.05)
 
 
-class Geometry(StrictModel):
+class Geometry(OneOf):
     """What a visual draws: exactly one of ``box``, ``cylinder``, ``sphere`` (as a Shape) or
     ``mesh``."""
 
@@ -178,21 +157,7 @@ class Geometry(StrictModel):
     sphere: Sphere | None = None
     mesh: Mesh | None = None
 
-    @model_validator(mode='after')
-    def _exactly_one(self):
-        given = [k for k in _GEOMETRY_KINDS if getattr(self, k) is not None]
-        if len(given) != 1:
-            raise ValueError(f'give exactly one of {", ".join(_GEOMETRY_KINDS)} (got '
-                             f'{given or "none"})')
-        return self
-
-    @property
-    def kind(self) -> str:
-        """'box', 'cylinder', 'sphere' or 'mesh'."""
-        return next(k for k in _GEOMETRY_KINDS if getattr(self, k) is not None)
-
-
-_GEOMETRY_KINDS = ('box', 'cylinder', 'sphere', 'mesh')
+    KINDS = ('box', 'cylinder', 'sphere', 'mesh')
 
 
 class Visual(StrictModel):
@@ -250,7 +215,7 @@ class Joint(StrictModel):
     torque_model: Literal['lever_arm', 'generalized'] = 'lever_arm'
     angle_mode: Literal['wrapped', 'continuous'] = 'wrapped'
     effort_limit: Annotated[float, Field(gt=0.0, allow_inf_nan=True),
-                            BeforeValidator(_not_a_boolean)] = math.inf
+                            BeforeValidator(not_a_boolean)] = math.inf
     limit: Limit | None = None
     damping: Annotated[Number, Field(ge=0.0)] = 0.0
     drive: Drive | None = None
@@ -335,6 +300,8 @@ class Scene(SceneSettings):
 
     bodies: Annotated[list[Body], Field(min_length=1)]
     joints: list[Joint] = []
+    contact: Contact | None = None      # None: no contact (unless ground is given)
+    ground: Ground | None = None        # static half-spaces (README.md#contact)
     frames: list[Frame] = []
     # what viewers draw; empty: every body's shape (a URDF scene lists its links' visuals)
     visuals: list[Visual] = []

@@ -19,8 +19,9 @@ import numpy as np
 import warp as wp
 
 from affine_joint_sim.physics.energy import mechanical_energy
-from affine_joint_sim.physics.fields import (PROBLEM_COLUMNS, STAT_FLOAT_NAMES, STAT_INT_NAMES,
-                                             allocate, array_sizes, device_model)
+from affine_joint_sim.physics.fields import (CONTACT_STATS, PROBLEM_COLUMNS, STAT_FLOAT_NAMES,
+                                             STAT_INT_NAMES, allocate, array_sizes,
+                                             device_model)
 from affine_joint_sim.physics.frames import POSE_COLUMNS
 from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
@@ -432,6 +433,9 @@ class Stepper:
             stats.update(zip(STAT_FLOAT_NAMES, floats[0].tolist()))
             for name in _FLAGS:
                 stats[name] = bool(stats[name])
+        if not self._host.has_contact:
+            for name in CONTACT_STATS:
+                del stats[name]
         stats['active_terms'] = self._active_terms()
         stats['launches_per_step'] = len(self._chunks)
         return stats

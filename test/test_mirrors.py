@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from affine_joint_sim import Stepper
+from affine_joint_sim.physics.fields import STAT_FLOAT_NAMES, STAT_INT_NAMES
 from affine_joint_sim.sim_warnings import SimulationWarning
 from test_extremes import pendulum
 from test_joints import every_joint_type
@@ -57,7 +58,8 @@ def test_a_step_moves_only_what_is_read():
     sim.body_q
     sim.stats                                                  # the statistics alone
     bodies = 2 * 4 * len(sim.body_names) * 12 * 8
-    assert moves.copies == 3 and moves.bytes_moved == joints + bodies + 4 * (8 * 4 + 3 * 8)
+    stats = 4 * (len(STAT_INT_NAMES) * 4 + len(STAT_FLOAT_NAMES) * 8)   # int32 and float64
+    assert moves.copies == 3 and moves.bytes_moved == joints + bodies + stats
     assert not sim._uploads.pending
     sim.set_torque('slide', 1.0)
     assert sim._uploads.pending

@@ -28,7 +28,7 @@ def build(t) -> SimpleNamespace:
     joint_coordinate, joint_coordinate_gradients = (t.joint_coordinate,
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
-    limit_penetration = t.limit_penetration
+    limit_penetration, add_contact = t.limit_penetration, t.add_contact
 
     @wp.func
     def add_gradients(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
@@ -107,8 +107,8 @@ def build(t) -> SimpleNamespace:
                  scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int, hessian: int):
         """rhs = −∇E(q) and, with ``hessian``, hessian = the diagonal blocks of ∇²E(q) of the
         free bodies (and offdiag = their coupling blocks when the model has state_coupling).
-        Returns the number of joints whose limit makes the last factors untrusted (gradient
-        alone; see ``add_state_blocks``)."""
+        Returns the number of joints whose limit, and of contacts whose barrier, makes the
+        last factors untrusted (gradient alone; see ``add_state_blocks``)."""
         dt2 = model.dt * model.dt
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
@@ -136,6 +136,9 @@ def build(t) -> SimpleNamespace:
             if model.state_coupling != 0:
                 untrusted += add_state_blocks(model, state, control, q, scratch, env, k, bdf2,
                                               hessian)
+        if model.has_contact != 0:
+            # an active barrier's curvature changes fast: the last factors are not trusted
+            untrusted += add_contact(model, q, scratch, env, hessian)
         return untrusted
 
     return SimpleNamespace(assemble=assemble)

@@ -35,6 +35,8 @@ def build(t) -> SimpleNamespace:
                                         _I['torque_dropped'])
     s_non_finite, s_rejected = _I['non_finite'], _I['step_rejected']
     s_residual, s_gap, s_strain = _F['residual'], _F['joint_gap'], _F['rotation_strain']
+    s_distance, s_contacts = _F['min_distance'], _I['contacts']
+    touching = t.touching
     p_any, p_not_converged, p_non_finite = _P['any'], _P['not_converged'], _P['non_finite']
     p_aliased, p_dropped, p_failures = (_P['angle_aliased'], _P['torque_dropped'],
                                         _P['line_search_failures'])
@@ -142,10 +144,11 @@ def build(t) -> SimpleNamespace:
         return strain
 
     @wp.func
-    def write_stats(state: State, env: int, chunk: int, iterations: int, halvings: int,
-                    converged: int, failures: int, aliased: int, dropped: int, finite: int,
-                    rejected: int, residual: scalar, gap: scalar, strain: scalar):
-        """The step's statistics, addressed by the names of physics.fields, and the
+    def write_stats(model: Model, state: State, env: int, chunk: int, iterations: int,
+                    halvings: int, converged: int, failures: int, aliased: int, dropped: int,
+                    finite: int, rejected: int, residual: scalar, gap: scalar, strain: scalar):
+        """The step's statistics, addressed by the names of physics.fields (with contact: the
+        smallest distance to a half-space and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
         step's Newton status does not count: its state was not kept)."""
         state.stats_int[env, s_iterations] = iterations
@@ -159,6 +162,10 @@ def build(t) -> SimpleNamespace:
         state.stats_float[env, s_residual] = residual
         state.stats_float[env, s_gap] = gap
         state.stats_float[env, s_strain] = strain
+        if model.has_contact != 0:
+            nearest, contacts = touching(model, state.q, env)
+            state.stats_float[env, s_distance] = nearest
+            state.stats_int[env, s_contacts] = contacts
         not_converged = int(0)
         if converged == 0 and rejected == 0:
             not_converged = 1

@@ -4,8 +4,9 @@ Everything else follows from it: the Warp structs the step kernel reads (``struc
 device arrays the Stepper allocates (``allocate``) and the check that a host model carries
 exactly the model's fields (``HostModel``). Shapes are symbolic: ``body`` (every scene body,
 fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments), the
-statistics columns and ``problem`` (PROBLEM_COLUMNS); ``()`` is a plain struct member, not an
-array. Frames: world, SI units.
+statistics columns, ``problem`` (PROBLEM_COLUMNS), ``point`` (contact points: collision
+vertices and sphere centres) and ``plane`` (static half-spaces); ``()`` is a plain struct
+member, not an array. Frames: world, SI units.
 """
 
 from dataclasses import dataclass
@@ -14,7 +15,8 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-__all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'PROBLEM_NAMES',
+__all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'CONTACT_STATS',
+           'PROBLEM_NAMES',
            'PROBLEM_COLUMNS', 'structs',
            'allocate', 'device_model', 'fields_of', 'env_bytes', 'array_sizes']
 
@@ -37,8 +39,10 @@ def _fields(group, rows):
 
 STAT_INT_NAMES = ('newton_iterations', 'line_search_halvings', 'converged',
                   'line_search_failures', 'angle_aliased', 'torque_dropped', 'non_finite',
-                  'step_rejected')
-STAT_FLOAT_NAMES = ('residual', 'joint_gap', 'rotation_strain')
+                  'step_rejected', 'contacts')
+STAT_FLOAT_NAMES = ('residual', 'joint_gap', 'rotation_strain', 'min_distance')
+# statistics of a scene with contact only (the Stepper leaves them out otherwise)
+CONTACT_STATS = ('contacts', 'min_distance')
 # The kinds of trouble a step reports (Stepper warns once per kind): state.problem_counts holds
 # per step the number of environments with each, after column 0, the number with any.
 PROBLEM_NAMES = ('not_converged', 'non_finite', 'angle_aliased', 'torque_dropped',
@@ -101,6 +105,15 @@ FIELDS = _fields('model', [
     ('joint_initial_position', 'scalar', J, 'rad | m', 'coordinate x₀ at t = 0 (its origin is '
      'the URDF\'s)'),
     ('joint_drive_stiffness', 'scalar', J, 'kg', 'drive K = strength_ratio (m_P + m_C), 0: none'),
+    ('has_contact', 'int32', (), '-', '1: the scene has contact (every contact loop is skipped '
+     'otherwise)'),
+    ('contact_d_hat', 'scalar', (), 'm', 'barrier activation distance d̂'),
+    ('contact_kappa', 'scalar', (), 'J/m^4', 'barrier stiffness κ'),
+    ('point_body', 'int32', ('point',), '-', 'free body of each contact point'),
+    ('point_rest', 'vec3', ('point',), 'm', 'its rest position x̄ (COM-centred body frame)'),
+    ('point_radius', 'scalar', ('point',), 'm', 'its radius (0: a vertex; r: a sphere centre)'),
+    ('plane_normal', 'vec3', ('plane',), '-', 'unit normal of each static half-space (free side)'),
+    ('plane_offset', 'scalar', ('plane',), 'm', 'its offset h: the half-space n·x ≥ h'),
 ]) + _fields('state', [
     ('q', 'vec12', EB, 'm, -', 'ABD state [p, a1, a2, a3]'),
     ('v', 'vec12', EB, 'm/s, 1/s', 'ABD velocity q̇'),
@@ -206,7 +219,8 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
     stepped in ``chunks`` launches (one problem count row each)."""
     return {'env': envs, 'chunk': chunks, 'body': host.body_count,
             'free': int(np.sum(host.body_fixed == 0)),
-            'joint': host.joint_count, 'stat_int': len(STAT_INT_NAMES),
+            'joint': host.joint_count, 'point': len(host.point_body),
+            'plane': len(host.plane_offset), 'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 
 

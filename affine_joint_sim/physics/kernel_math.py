@@ -1,4 +1,4 @@
-"""The kernels' sin and atan2, the CPU compile options that keep every kernel's rounding the
+"""The kernels' sin, atan2 and log, the CPU compile options that keep every kernel's rounding the
 same on every x86-64 machine (docs/physics.md#reproducibility), and the salt that ties a
 compiled kernel to the physics sources it was built from.
 
@@ -6,19 +6,21 @@ Warp compiles CPU kernels for the host's instruction set and calls the C library
 transcendental functions. Both vary between machines: the C library picks its sin and atan2
 by CPU features, and LLVM fuses a product and a sum into one FMA (one rounding instead of two)
 wherever the host has FMA, in places that depend on how it vectorizes for that host. Here
-sin and atan2 are built from +, −, ×, ÷ and √ (the algorithms and coefficients of
+sin, atan2 and log are built from +, −, ×, ÷ and √ (the algorithms and coefficients of
 ``affine_joint_sim.portable_math``), and ``kernel_options`` turns contraction off while
 keeping the host's vector width: vector lanes round exactly like scalars, so only fusion
 changed bits. The fma() that Warp's matrix products call is rounded once on every machine.
 """
 
 import hashlib
+import math
 from pathlib import Path
 from types import SimpleNamespace
 
 import warp as wp
 
 from affine_joint_sim.portable_math import (ATAN_COEFFICIENTS, COS_COEFFICIENTS, HALF_PI,
+                                            LN2_HI, LN2_LO, LOG_COEFFICIENTS,
                                             SIN_COEFFICIENTS, TAN_PI_8, half_pi_parts)
 
 __all__ = ['build', 'kernel_options', 'source_salt']
@@ -53,6 +55,7 @@ def build(t) -> SimpleNamespace:
     """sin, atan2, the kernel module options and the source salt for the types namespace
     ``t``."""
     scalar, zero, one, four = t.scalar, t.zero, t.one, t.four
+    two = t.two
     # π/2 in three parts whose products with the quadrant number are exact in this precision
     p1, p2, p3 = (scalar(p) for p in half_pi_parts(33 if scalar is wp.float64 else 12))
     half_pi, quarter_pi, pi = scalar(HALF_PI), scalar(0.5 * HALF_PI), scalar(2.0 * HALF_PI)
@@ -61,6 +64,10 @@ def build(t) -> SimpleNamespace:
     s3, s5, s7, s9, s11, s13, s15, s17 = (scalar(c) for c in SIN_COEFFICIENTS)
     c2, c4, c6, c8, c10, c12, c14, c16, c18 = (scalar(c) for c in COS_COEFFICIENTS)
     a3, a5, a7, a9, a11, a13, a15, a17 = (scalar(c) for c in ATAN_COEFFICIENTS)
+    l3, l5, l7, l9, l11, l13, l15, l17, l19, l21, l23 = (scalar(c) for c in LOG_COEFFICIENTS)
+    ln2_hi, ln2_lo = scalar(LN2_HI), scalar(LN2_LO)
+    sqrt_half, sqrt_two, two32, inv_two32 = (scalar(math.sqrt(0.5)), scalar(math.sqrt(2.0)),
+                                             scalar(2.0 ** 32), scalar(2.0 ** -32))
 
     @wp.func
     def sin(x: scalar):
@@ -109,5 +116,30 @@ def build(t) -> SimpleNamespace:
                 angle = -angle
         return angle
 
-    return SimpleNamespace(sin=sin, atan2=atan2, kernel_options=kernel_options(),
+    @wp.func
+    def log(x: scalar):
+        """ln x for finite x > 0: x = m 2^k with m in [√½, √2) by exact scalings by powers of
+        two, then 2 artanh((m − 1)/(m + 1)) as a series (portable_math.LOG_COEFFICIENTS) plus
+        k ln 2 in two parts."""
+        m = x
+        k = zero
+        while m < inv_two32:
+            m = m * two32
+            k = k - scalar(32.0)
+        while m > two32:
+            m = m * inv_two32
+            k = k + scalar(32.0)
+        while m < sqrt_half:
+            m = m * scalar(2.0)
+            k = k - one
+        while m >= sqrt_two:
+            m = m * scalar(0.5)
+            k = k + one
+        s = (m - one) / (m + one)
+        z = s * s
+        series = two * s * (one + z * (l3 + z * (l5 + z * (l7 + z * (l9 + z * (l11 + z * (
+            l13 + z * (l15 + z * (l17 + z * (l19 + z * (l21 + z * l23)))))))))))
+        return (k * ln2_lo + series) + k * ln2_hi
+
+    return SimpleNamespace(sin=sin, atan2=atan2, log=log, kernel_options=kernel_options(),
                            source_salt=source_salt())

@@ -2,26 +2,26 @@
 
 ``step_kernels(scalar)`` builds, once per scalar type (wp.float64 or wp.float32), the types
 and structs of ``fields``, then each stage's Warp functions in pipeline order: the portable
-sin and atan2 and the kernels' compile options, affine kinematics, orthogonality, tree solve,
-joints, joint terms, commands, incremental potential, assembly, prediction, Newton, commit
-and the step kernel. Every stage function is an attribute of the returned namespace, so tests
-can launch a stage on its own (``physics.evaluate``).
+sin, atan2 and log and the kernels' compile options, affine kinematics, orthogonality, tree
+solve, joints, joint terms, commands, contact, incremental potential, assembly, prediction,
+Newton, commit and the step kernel. Every stage function is an attribute of the returned
+namespace, so tests can launch a stage on its own (``physics.evaluate``).
 """
 
 from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics import (affine, assemble, commands, commit, frames, joint_terms,
-                                      joints, kernel_math, newton, ortho, potential,
-                                      prediction, step, tree_solve)
+from affine_joint_sim.physics import (affine, assemble, commands, commit, contact, frames,
+                                      joint_terms, joints, kernel_math, newton, ortho,
+                                      potential, prediction, step, tree_solve)
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.precision import types_for
 
 __all__ = ['step_kernels', 'scalar_of', 'frame_kernel']
 
-_STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands, potential,
-           assemble, prediction, newton, commit, step)
+_STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands, contact,
+           potential, assemble, prediction, newton, commit, step)
 _BUILT = {}
 _FRAMES = {}
 

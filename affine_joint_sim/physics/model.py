@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
+from affine_joint_sim.physics.contact_model import contact_arrays
 from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, GENERALIZED, LEVER_ARM,
                                             WRAPPED)
 from affine_joint_sim.physics.joint_kinds import JOINT_KINDS, joint_kind
@@ -119,6 +120,8 @@ def build_model(scene) -> HostModel:
     nonlinear = np.array([not JOINT_KINDS[code].linear for code in joints['joint_type']],
                          dtype=bool)
     state_coupling = bool((state_terms | (moving & nonlinear)).any())
+    contact = contact_arrays(scene, q0)
+    active += ['contact'] * contact['has_contact']
     values = dict(
         dt=scene.dt, gravity=gravity, has_gravity=int(np.any(gravity != 0.0)),
         integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,
@@ -132,7 +135,7 @@ def build_model(scene) -> HostModel:
         body_joint_hessian=joint_hessian,
         elim_order=elim_order, elim_parent=elim_parent, elim_offdiag=elim_offdiag,
         joint_has_free=has_free, joint_offdiag_body=offdiag_body,
-        joint_offdiag_child=offdiag_child, **joints)
+        joint_offdiag_child=offdiag_child, **joints, **contact)
     return HostModel(values, precision=scene.solver.precision, active_terms=active,
                      body_q0=q0, body_v0=v0)
 

@@ -9,7 +9,10 @@ ends most steps without a second Hessian), then a line search on E:
 the full step with the bodies' turns followed on their rotations (``moved``), else a
 backtracking search on the straight path (≤ HALVINGS halvings); a trial is accepted on no
 increase up to the rounding of E, its own and that from the coordinates' (see
-``position_rounding``). Runs inside the step kernel: no host sync.
+``position_rounding``). With contact (docs/physics.md#contact) the straight path starts at
+the step bound that keeps every point clear of the half-spaces, energies are +∞ on
+penetration, Newton starts from q_n where the prediction touches, converges only on a full
+step that is collision-free, and always searches. Runs inside the step kernel: no host sync.
 """
 
 from types import SimpleNamespace
@@ -35,6 +38,7 @@ def build(t) -> SimpleNamespace:
     assemble, solve_tree, solve_factored = t.assemble, t.solve_tree, t.solve_factored
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
     incremental_potential = t.incremental_potential
+    step_bound, touching = t.step_bound, t.touching
 
     @wp.func
     def warm_start(q_tilde: vec12, q_n: vec12):
@@ -206,6 +210,8 @@ def build(t) -> SimpleNamespace:
         if trial <= bound:
             accepted = 1
         alpha = one
+        if model.has_contact != 0:      # no point comes closer than η of its gap (contact)
+            alpha = step_bound(model, scratch, env)
         for ls in range(HALVINGS + 1):
             if accepted != 0:
                 break
@@ -233,6 +239,12 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
+        if model.has_contact != 0:
+            nearest, active = touching(model, q, env)
+            if nearest <= zero:     # the prediction touches: start from q_n, which does not
+                for k in range(n_free):
+                    b = model.elim_order[k]
+                    q[env, b] = scratch.q_n[env, b]
         for k in range(model.joint_parent.shape[0]):
             scratch.limit_depth[env, k] = -one
         # newton_tol·dt, or the rounding of an update if larger: below it Newton only cycles
@@ -240,7 +252,7 @@ def build(t) -> SimpleNamespace:
         disp_tol = wp.max(model.newton_tol * dt, update_roundoff * size)
         affine_tol = wp.max(model.newton_tol * dt, update_roundoff * size / lever)
         energy = zero
-        if model.line_search != 0:
+        if model.line_search != 0 or model.has_contact != 0:
             energy = incremental_potential(model, state, control, q, scratch, env,
                                            kinetic_scale, bdf2)
         iterations = int(0)
@@ -260,6 +272,9 @@ def build(t) -> SimpleNamespace:
                                      bdf2, 0)
                 solve_factored(model, scratch, env)
                 residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
+                if small != 0 and model.has_contact != 0:
+                    if step_bound(model, scratch, env) < one:
+                        small = 0
                 if untrusted == 0 and small != 0:
                     move(model, q, scratch, env, one, 0)
                     converged = 1
@@ -268,11 +283,14 @@ def build(t) -> SimpleNamespace:
             solve_tree(model, scratch, env)
             factored = 1
             residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
+            if small != 0 and model.has_contact != 0:   # converged on a full, free step only
+                if step_bound(model, scratch, env) < one:
+                    small = 0
             if small != 0:
                 move(model, q, scratch, env, one, 0)
                 converged = 1
                 break
-            if model.line_search == 0:
+            if model.line_search == 0 and model.has_contact == 0:
                 move(model, q, scratch, env, full_step(model, scratch, env), 1)
                 continue
             trial, used, accepted = line_search(model, state, control, q, scratch, env,

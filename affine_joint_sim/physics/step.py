@@ -37,7 +37,7 @@ def build(t) -> SimpleNamespace:
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if finite == 0:
             converged = 0
-        write_stats(state, env, chunk, iterations, halvings, converged, failures, aliased,
+        write_stats(model, state, env, chunk, iterations, halvings, converged, failures, aliased,
                     dropped, finite, rejected, residual, largest_gap(model, state, env),
                     largest_strain(model, state, env))
 

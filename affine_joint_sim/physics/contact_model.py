@@ -1,0 +1,135 @@
+"""Host-side contact model: a scene's collision geometry as contact points and its ground as
+half-spaces (the model fields of physics.fields under ``has_contact``), and the refusal of a
+scene whose initial state already touches (docs/physics.md#contact).
+
+A contact point is a rest point x̄ of a free body (COM-centred body frame) with a radius r: a
+box's corners (r = 0), a sphere's centre, a capsule's two sphere centres. Its distance to the
+half-space n·x ≥ h is exact: n·(p + A x̄) − h − r (a box touches a plane first at a corner).
+"""
+
+import warnings
+
+import numpy as np
+
+from affine_joint_sim import portable_math as pm
+from affine_joint_sim.contact_schema import Collision, Contact
+from affine_joint_sim.rotations import rpy_matrix
+from affine_joint_sim.sim_warnings import SimulationWarning
+
+__all__ = ['SUPPORTED', 'contact_arrays', 'world_distances']
+
+SUPPORTED = ('box', 'sphere', 'capsule')     # collision kinds with contact points so far
+_CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)
+                     for sz in (-1.0, 1.0)])
+
+
+def _shape_collision(shape) -> Collision:
+    """A body's own shape as a collision geometry."""
+    if shape.kind == 'box':
+        return Collision(box=shape.box)
+    if shape.kind == 'sphere':
+        return Collision(sphere={'radius': shape.sphere.radius})
+    return Collision(cylinder={'radius': shape.cylinder.radius,
+                               'length': shape.cylinder.length})
+
+
+def _points(geometry: Collision, where: str) -> list[tuple[np.ndarray, float]]:
+    """(x̄, r) of one geometry's contact points in the body frame."""
+    if geometry.kind not in SUPPORTED:
+        from affine_joint_sim.scene import SceneError
+        raise SceneError(f'{where}: {geometry.kind} collision geometry is not supported yet '
+                         f'(supported: {", ".join(SUPPORTED)})')
+    rotation = rpy_matrix(*geometry.origin.rpy)
+    origin = np.array(geometry.origin.xyz, dtype=np.float64)
+    if geometry.kind == 'box':
+        local = [0.5 * np.array(geometry.box) * corner for corner in _CORNERS]
+        radius = 0.0
+    elif geometry.kind == 'sphere':
+        local, radius = [np.zeros(3)], geometry.sphere.radius
+    else:
+        half = 0.5 * geometry.capsule.length
+        local, radius = [np.array([0.0, 0.0, -half]), np.array([0.0, 0.0, half])], \
+            geometry.capsule.radius
+    return [(origin + pm.matmul(rotation, x), float(radius)) for x in local]
+
+
+def _half_spaces(scene) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(unit normals, offsets h of n·x ≥ h, names) of the scene's ground."""
+    normals, offsets, names = [], [], []
+    for g, half in enumerate(scene.ground or []):
+        if half.height is not None:
+            normal, offset = np.array([0.0, 0.0, 1.0]), float(half.height)
+        else:
+            normal = np.array(half.normal, dtype=np.float64)
+            normal = normal / pm.norm(normal)
+            offset = pm.dot(normal, np.array(half.point, dtype=np.float64))
+        normals.append(normal)
+        offsets.append(offset)
+        names.append('ground' if len(scene.ground) == 1 else f'ground[{g}]')
+    return (np.array(normals).reshape(-1, 3), np.array(offsets, dtype=np.float64), names)
+
+
+def world_distances(q, point_body, point_rest, point_radius, normals, offsets) -> np.ndarray:
+    """Distances [m], shape (points, planes), of the contact points at states q (n_bodies, 12)
+    to the half-spaces."""
+    out = np.zeros((len(point_body), len(offsets)))
+    for i, (b, rest, radius) in enumerate(zip(point_body, point_rest, point_radius)):
+        x = q[b, :3] + pm.matmul(q[b, 3:].reshape(3, 3), rest)
+        for g, (normal, offset) in enumerate(zip(normals, offsets)):
+            out[i, g] = pm.dot(normal, x) - offset - radius
+    return out
+
+
+def contact_arrays(scene, q0: np.ndarray) -> dict:
+    """The contact model fields of ``scene`` with initial states ``q0`` (n_bodies, 12); a
+    scene without ``contact`` and ``ground`` gets empty tables and has_contact 0. Raises
+    SceneError if a contact point starts on or inside a half-space."""
+    on = scene.contact is not None or scene.ground is not None
+    settings = scene.contact or Contact()
+    bodies, rests, radii = [], [], []
+    for b, body in enumerate(scene.bodies if on else []):
+        if body.collision is None:
+            continue
+        if body.fixed:
+            warnings.warn(f'body {body.name!r}: the collision geometry of a fixed body is not '
+                          'used yet (only ground half-spaces are static geometry so far)',
+                          SimulationWarning, stacklevel=3)
+            continue
+        geometries = ([_shape_collision(body.shape)] if body.collision == 'shape'
+                      else body.collision)
+        for k, geometry in enumerate(geometries):
+            where = (f'bodies[{b}].collision' if body.collision == 'shape'
+                     else f'bodies[{b}].collision[{k}]')
+            for rest, radius in _points(geometry, where):
+                bodies.append(b)
+                rests.append(rest)
+                radii.append(radius)
+    if on and not scene.solver.line_search:
+        warnings.warn('solver.line_search is false, but a scene with contact always searches '
+                      '(a step must never end inside the ground)', SimulationWarning,
+                      stacklevel=3)
+    normals, offsets, names = _half_spaces(scene) if on else (np.zeros((0, 3)), np.zeros(0), [])
+    arrays = dict(has_contact=int(on), contact_d_hat=settings.d_hat,
+                  contact_kappa=settings.kappa,
+                  point_body=np.array(bodies, dtype=np.int32),
+                  point_rest=np.array(rests, dtype=np.float64).reshape(-1, 3),
+                  point_radius=np.array(radii, dtype=np.float64),
+                  plane_normal=normals, plane_offset=offsets)
+    _refuse_touching(scene, q0, arrays, names)
+    return arrays
+
+
+def _refuse_touching(scene, q0, arrays, names) -> None:
+    """SceneError naming the body and the half-space if a point starts at distance ≤ 0."""
+    if not len(arrays['point_body']) or not len(names):
+        return
+    distances = world_distances(q0, arrays['point_body'], arrays['point_rest'],
+                                arrays['point_radius'], arrays['plane_normal'],
+                                arrays['plane_offset'])
+    i, g = np.unravel_index(int(np.argmin(distances)), distances.shape)
+    if distances[i, g] <= 0.0:
+        from affine_joint_sim.scene import SceneError
+        body = scene.bodies[arrays['point_body'][i]].name
+        raise SceneError(f'body {body!r} starts {-distances[i, g]:.6g} m inside {names[g]} '
+                         f'(distance {distances[i, g]:.6g} m): a scene with contact must '
+                         'start with nothing touching')

@@ -1,0 +1,206 @@
+"""Contact with ground half-spaces (physics.contact): the barrier's gradient and Hessian
+against finite differences, the resting distance against the closed-form equilibrium of the
+barrier (the numbers of libuipc's defaults), a drop that never penetrates and obeys energy,
+and the scene checks."""
+
+import math
+
+import numpy as np
+import pytest
+
+from affine_joint_sim.physics.evaluate import Stages
+from affine_joint_sim.scene import Scene, SceneError
+from affine_joint_sim.stepper import Stepper
+
+G = 9.81
+
+
+def _box_scene(height=0.2, d_hat=0.01, kappa=1.0e9, ground=None, dt=0.01, **extra):
+    return Scene.from_dict({
+        'dt': dt, 'solver': {'integrator': 'bdf1'},
+        'bodies': [{'name': 'box', 'shape': {'box': [0.1, 0.1, 0.1]}, 'mass': 1.0,
+                    'position': [0.0, 0.0, height], 'collision': 'shape', **extra}],
+        'ground': ground or {'height': 0.0},
+        'contact': {'d_hat': d_hat, 'kappa': kappa}})
+
+
+def _resting_distance(force, d_hat, kappa):
+    """d* with −d b'(d²)·2 = force (the barrier's normal force, no dt²), by bisection."""
+    big_hat = d_hat * d_hat
+
+    def normal_force(d):
+        big = d * d
+        return 2.0 * kappa * d * (2.0 * (big - big_hat) * math.log(big / big_hat)
+                                  + (big - big_hat) ** 2 / big)
+
+    low, high = 1e-12, d_hat
+    for _ in range(200):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if normal_force(mid) > force else (low, mid)
+    return 0.5 * (low + high)
+
+
+def test_the_resting_distance_oracle_reproduces_the_published_numbers():
+    # 1 kg on 4 corners, κ 1e9, d̂ 1 cm: 9.8986e-3 m; 10 such boxes stacked: 9.6769e-3 m
+    assert _resting_distance(G / 4, 0.01, 1e9) == pytest.approx(9.8986e-3, abs=1e-7)
+    assert _resting_distance(10 * G / 4, 0.01, 1e9) == pytest.approx(9.6769e-3, abs=1e-7)
+
+
+@pytest.mark.parametrize('d_hat, kappa', [(0.01, 1e9), (0.001, 1e9), (0.01, 1e8)])
+def test_a_box_comes_to_rest_at_the_barrier_equilibrium_and_never_touches(d_hat, kappa):
+    sim = Stepper(_box_scene(0.1, d_hat, kappa))
+    nearest = []
+    for _ in range(300):
+        sim.step()
+        nearest.append(sim.stats['min_distance'])
+        assert sim.stats['converged']
+    expected = _resting_distance(G / 4, d_hat, kappa)
+    assert min(nearest) > 0.0
+    assert sim.stats['contacts'] == 4
+    assert sim.stats['min_distance'] == pytest.approx(expected, abs=1e-6)
+    assert abs(sim.body_qdot[0][2]) < 1e-6
+
+
+def test_a_sphere_rests_on_its_single_point_at_the_equilibrium_of_its_whole_weight():
+    scene = Scene.from_dict({
+        'dt': 0.01, 'bodies': [{'name': 'ball', 'shape': {'sphere': {'radius': 0.05}},
+                                'mass': 2.0, 'position': [0.0, 0.0, 0.08],
+                                'collision': 'shape'}],
+        'ground': {'height': -0.01}, 'contact': {'d_hat': 0.005}})
+    sim = Stepper(scene)
+    for _ in range(300):
+        sim.step()
+    expected = _resting_distance(2.0 * G, 0.005, 1e9)
+    assert sim.stats['contacts'] == 1
+    assert sim.body_q[0][2] == pytest.approx(-0.01 + 0.05 + expected, abs=1e-6)
+
+
+def test_a_drop_never_penetrates_and_never_outruns_free_fall():
+    drop = 0.5
+    sim = Stepper(_box_scene(0.05 + drop, dt=0.005))
+    fastest = 0.0
+    for _ in range(400):
+        sim.step()
+        assert sim.stats['min_distance'] > 0.0
+        fastest = max(fastest, -sim.body_qdot[0][2])
+    assert sim.stats['contacts'] == 4
+    assert fastest <= math.sqrt(2.0 * G * drop)
+
+
+def test_a_tilted_half_space_holds_a_frictionless_box_sliding_down_it():
+    tilt = math.radians(20.0)
+    normal = [math.sin(tilt), 0.0, math.cos(tilt)]
+    scene = _box_scene(0.2, ground={'point': [0.0, 0.0, 0.0], 'normal': normal},
+                       orientation={'rpy': [0.0, tilt, 0.0]})
+    sim = Stepper(scene)
+    for _ in range(200):
+        sim.step()
+        assert sim.stats['min_distance'] > 0.0
+    assert sim.stats['contacts'] == 4
+    # no friction yet: it slides down the slope (its normal's x side) at g sin(tilt)
+    velocity = sim.body_qdot[0][:3]
+    along = velocity @ np.array([math.cos(tilt), 0.0, -math.sin(tilt)])
+    assert along > 0.0 and abs(velocity @ np.array(normal)) < 1e-3
+
+
+def _near_ground_state(scene, rng):
+    """A state of the box with every corner between 0.2 d̂ and 0.9 d̂ above the ground."""
+    q = np.zeros((1, 12))
+    tilt = 0.02 * rng.normal(size=3)
+    from affine_joint_sim.rotations import rpy_matrix
+    a = rpy_matrix(*tilt) @ (np.eye(3) + 1e-4 * rng.normal(size=(3, 3)))
+    q[0, 3:] = a.reshape(9)
+    corners = np.array([[sx, sy, sz] for sx in (-0.05, 0.05) for sy in (-0.05, 0.05)
+                        for sz in (-0.05, 0.05)])
+    lowest = (corners @ a.T)[:, 2].min()
+    q[0, :3] = [0.01, -0.02, -lowest + 0.005]
+    return q
+
+
+def test_the_barrier_gradient_and_hessian_match_finite_differences():
+    rng = np.random.default_rng(3)
+    with_contact = Stages(_box_scene())
+    without = Stages(Scene.from_dict({**_box_scene().model_dump(exclude_none=True),
+                                      'ground': None, 'contact': None}))
+    q = _near_ground_state(_box_scene(), rng)
+    q_tilde = q + 1e-3 * rng.normal(size=q.shape)
+
+    def contact_energy(x):
+        return with_contact.energy(x, q_tilde) - without.energy(x, q_tilde)
+
+    gradient = (with_contact.newton_system(q, q_tilde)[0]
+                - without.newton_system(q, q_tilde)[0])
+    hessian = (with_contact.newton_system(q, q_tilde)[1]
+               - without.newton_system(q, q_tilde)[1])
+    step = 1e-7
+    fd_gradient = np.zeros(12)
+    fd_hessian = np.zeros((12, 12))
+    for i in range(12):
+        e = np.zeros((1, 12))
+        e[0, i] = step
+        fd_gradient[i] = (contact_energy(q + e) - contact_energy(q - e)) / (2 * step)
+        fd_hessian[:, i] = (with_contact.newton_system(q + e, q_tilde)[0]
+                            - without.newton_system(q + e, q_tilde)[0]
+                            - with_contact.newton_system(q - e, q_tilde)[0]
+                            + without.newton_system(q - e, q_tilde)[0]) / (2 * step)
+    assert np.abs(fd_gradient).max() > 0.0
+    np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
+                               atol=1e-6 * np.abs(fd_gradient).max())
+    np.testing.assert_allclose(hessian, fd_hessian, rtol=1e-5,
+                               atol=1e-6 * np.abs(fd_hessian).max())
+    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()
+
+
+def test_a_penetrating_state_has_infinite_energy():
+    stages = Stages(_box_scene())
+    q = _near_ground_state(_box_scene(), np.random.default_rng(4))
+    q[0, 2] -= 0.02
+    assert stages.energy(q, q) == math.inf
+
+
+def test_a_scene_that_starts_touching_is_refused_naming_the_body_and_the_distance():
+    with pytest.raises(SceneError, match=r"body 'box' starts 0\.01 m inside ground"):
+        Stepper(_box_scene(0.04))
+
+
+def test_collision_geometry_without_contact_points_yet_is_one_line():
+    scene = Scene.from_dict({
+        'bodies': [{'name': 'can', 'shape': {'cylinder': {'radius': 0.05, 'length': 0.1}},
+                    'mass': 1.0, 'position': [0, 0, 0.2], 'collision': 'shape'}],
+        'ground': {'height': 0.0}})
+    with pytest.raises(SceneError, match=r'bodies\[0\]\.collision: cylinder collision geometry '
+                                         r'is not supported yet'):
+        Stepper(scene)
+
+
+def test_a_scene_without_contact_reports_no_contact_statistics():
+    scene = Scene.from_dict({'bodies': [{'name': 'box', 'shape': {'box': [0.1, 0.1, 0.1]},
+                                         'mass': 1.0, 'collision': 'shape'}]})
+    sim = Stepper(scene)
+    sim.step()
+    assert 'min_distance' not in sim.stats and 'contact' not in sim.stats['active_terms']
+
+
+def test_collision_geometry_becomes_contact_points_in_the_body_frame():
+    from affine_joint_sim.physics.model import build_model
+    scene = Scene.from_dict({
+        'bodies': [{'name': 'base', 'fixed': True, 'mass': 1.0},
+                   {'name': 'tool', 'shape': {'box': [0.2, 0.1, 0.1]}, 'mass': 1.0,
+                    'position': [0.0, 0.0, 0.5],
+                    'collision': [{'box': [0.2, 0.1, 0.1]},
+                                  {'sphere': {'radius': 0.03},
+                                   'origin': {'xyz': [0.1, 0.0, 0.0]}},
+                                  {'capsule': {'radius': 0.01, 'length': 0.2},
+                                   'origin': {'xyz': [0.0, 0.0, -0.05],
+                                              'rpy': [0.0, math.pi / 2, 0.0]}}]}],
+        'ground': [{'height': 0.0}, {'point': [1.0, 0.0, 0.0], 'normal': [-2.0, 0.0, 0.0]}]})
+    host = build_model(scene)
+    assert list(host.point_body) == [1] * 11
+    np.testing.assert_allclose(np.abs(host.point_rest[:8]), [[0.1, 0.05, 0.05]] * 8)
+    np.testing.assert_allclose(host.point_rest[8], [0.1, 0.0, 0.0])
+    # the capsule's axis (its z) turned onto x: centres at ±0.1 m along x
+    np.testing.assert_allclose(host.point_rest[9:], [[-0.1, 0.0, -0.05], [0.1, 0.0, -0.05]],
+                               atol=1e-12)
+    np.testing.assert_allclose(host.point_radius, [0.0] * 8 + [0.03, 0.01, 0.01])
+    np.testing.assert_allclose(host.plane_normal, [[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])
+    np.testing.assert_allclose(host.plane_offset, [0.0, -1.0])
