@@ -204,3 +204,98 @@ def test_collision_geometry_becomes_contact_points_in_the_body_frame():
     np.testing.assert_allclose(host.point_radius, [0.0] * 8 + [0.03, 0.01, 0.01])
     np.testing.assert_allclose(host.plane_normal, [[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])
     np.testing.assert_allclose(host.plane_offset, [0.0, -1.0])
+
+
+def _incline_run(mu, tilt_deg=20.0, steps=300):
+    """Along-slope speeds [m/s] of a 1 kg box on a tilted half-space (BDF1, dt 0.01,
+    d̂ 1 cm, ε_v 1 cm/s), every step."""
+    tilt = math.radians(tilt_deg)
+    scene = _box_scene(0.2, ground={'point': [0.0, 0.0, 0.0],
+                                    'normal': [math.sin(tilt), 0.0, math.cos(tilt)]},
+                       orientation={'rpy': [0.0, tilt, 0.0]})
+    scene = scene.model_copy(update={'contact': scene.contact.model_copy(
+        update={'friction': mu, 'eps_velocity': 0.01})})
+    sim = Stepper(scene)
+    down = np.array([math.cos(tilt), 0.0, -math.sin(tilt)])
+    speeds = []
+    for _ in range(steps):
+        sim.step()
+        assert sim.stats['converged'] and sim.stats['min_distance'] > 0.0
+        speeds.append(sim.body_qdot[0][:3] @ down)
+    return np.array(speeds)
+
+
+def test_a_box_that_sticks_on_an_incline_creeps_at_the_smoothed_friction_speed():
+    # tan 20° < μ = 0.5: smoothed friction creeps at ε_v (1 − √(1 − tan α / μ)) = 4.78 mm/s
+    speeds = _incline_run(0.5)
+    expected = 0.01 * (1.0 - math.sqrt(1.0 - math.tan(math.radians(20.0)) / 0.5))
+    np.testing.assert_allclose(speeds[-100:], expected, rtol=1e-4)
+
+
+def test_a_box_that_slips_on_an_incline_accelerates_at_g_sin_minus_mu_g_cos():
+    speeds = _incline_run(0.2)
+    tilt = math.radians(20.0)
+    acceleration = np.diff(speeds[-100:]) / 0.01
+    np.testing.assert_allclose(acceleration, G * (math.sin(tilt) - 0.2 * math.cos(tilt)),
+                               rtol=1e-4)
+
+
+def test_a_sliding_box_stops_within_the_coulomb_stopping_distance():
+    # BDF1 at dt h from v0 under μ g: d = Σ_k h (v0 − k μ g h), 0.4997 m for v0 2, μ 0.4, h 0.01
+    rest = _resting_distance(G / 4, 0.01, 1e9)
+    scene = _box_scene(0.05 + rest, linear_velocity=[2.0, 0.0, 0.0])
+    scene = scene.model_copy(update={'contact': scene.contact.model_copy(
+        update={'friction': 0.4})})
+    sim = Stepper(scene)
+    for _ in range(100):
+        sim.step()
+    h, v0, mu = 0.01, 2.0, 0.4
+    steps = int(v0 / (mu * G * h))
+    expected = sum(h * (v0 - k * mu * G * h) for k in range(1, steps + 1))
+    assert sim.body_q[0][0] == pytest.approx(expected, rel=5e-3)
+    assert abs(sim.body_qdot[0][0]) < 1e-3
+
+
+def test_two_surfaces_combine_their_friction_by_the_harmonic_mean():
+    from affine_joint_sim.physics.contact_model import combined_friction
+    assert combined_friction(0.5, 0.5) == 0.5
+    assert combined_friction(1.0, 0.05) == pytest.approx(2 * 0.05 / 1.05)
+    assert combined_friction(0.0, 0.8) == 0.0 and combined_friction(0.0, 0.0) == 0.0
+
+
+@pytest.mark.parametrize('slip', [2e-5, 3e-3])      # below and beyond ε_v dt = 1e-4 m
+def test_the_friction_gradient_and_hessian_match_finite_differences(slip):
+    rng = np.random.default_rng(5)
+    scene = _box_scene()
+    with_contact, without = Stages(scene), Stages(scene.model_copy(
+        update={'ground': None, 'contact': None}))
+    q = _near_ground_state(scene, rng)
+    start = q.copy()
+    start[0, :2] -= slip * np.array([0.6, 0.8])           # where the step started
+    with_contact.scratch.q_n.assign(start[None])
+    # a lagged normal force on every corner (8 points × 1 plane), as at the step start
+    with_contact.scratch.friction_normal.assign(np.full((1, 8), 2.5e-4))
+    q_tilde = q.copy()
+
+    def part(stages, x):
+        return stages.newton_system(x, q_tilde)
+
+    def energy(x):
+        return with_contact.energy(x, q_tilde) - without.energy(x, q_tilde)
+
+    gradient = part(with_contact, q)[0] - part(without, q)[0]
+    hessian = part(with_contact, q)[1] - part(without, q)[1]
+    step = 1e-8
+    fd_gradient, fd_hessian = np.zeros(12), np.zeros((12, 12))
+    for i in range(12):
+        e = np.zeros((1, 12))
+        e[0, i] = step
+        fd_gradient[i] = (energy(q + e) - energy(q - e)) / (2 * step)
+        fd_hessian[:, i] = (part(with_contact, q + e)[0] - part(without, q + e)[0]
+                            - part(with_contact, q - e)[0] + part(without, q - e)[0]) / (2 * step)
+    np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
+                               atol=1e-6 * np.abs(fd_gradient).max())
+    # IPC's closed forms are the exact Hessian of the smoothed friction, and PSD
+    np.testing.assert_allclose(hessian, fd_hessian, rtol=1e-4,
+                               atol=1e-5 * np.abs(fd_hessian).max())
+    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()

@@ -10,7 +10,7 @@ from affine_joint_sim.physics.model import HostModel, build_model
 from test_joints import every_joint_type
 
 SIZES = {'env': 3, 'chunk': 2, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 3,
-         'problem': 6}
+         'problem': 6, 'point': 6, 'plane': 2, 'pair': 12}
 
 
 @pytest.mark.parametrize('scalar', [wp.float64, wp.float32])
@@ -37,7 +37,8 @@ def test_the_host_model_carries_exactly_the_model_fields_with_their_shapes():
     scene = every_joint_type()
     host = build_model(scene)
     sizes = dict(SIZES, body=len(scene.bodies), joint=len(scene.joints),
-                 free=int(np.sum(host.body_fixed == 0)), point=0, plane=0)   # no contact
+                 free=int(np.sum(host.body_fixed == 0)), point=0, plane=0,
+                 pair=0)                                        # no contact
     for f in fields_of('model'):
         value = np.asarray(getattr(host, f.name))
         trailing = {'vec3': (3,), 'vec12': (12,), 'mat12': (12, 12)}.get(f.dtype, ())

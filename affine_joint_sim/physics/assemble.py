@@ -29,6 +29,7 @@ def build(t) -> SimpleNamespace:
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
     limit_penetration, add_contact = t.limit_penetration, t.add_contact
+    add_friction = t.add_friction
 
     @wp.func
     def add_gradients(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
@@ -137,8 +138,9 @@ def build(t) -> SimpleNamespace:
                 untrusted += add_state_blocks(model, state, control, q, scratch, env, k, bdf2,
                                               hessian)
         if model.has_contact != 0:
-            # an active barrier's curvature changes fast: the last factors are not trusted
+            # an active barrier's or friction's curvature changes fast: no last factors
             untrusted += add_contact(model, q, scratch, env, hessian)
+            untrusted += add_friction(model, q, scratch, env, hessian)
         return untrusted
 
     return SimpleNamespace(assemble=assemble)

@@ -1,6 +1,7 @@
 """Contact of free bodies with static half-spaces: the IPC barrier on each contact point's
-distance, its gradient and Hessian mapped into the body's block, the step bound along a Newton
-direction, and the statistics (docs/physics.md#contact).
+distance, lagged smoothed Coulomb friction, their gradients and Hessians mapped into the
+body's block, the step bound along a Newton direction, and the statistics
+(docs/physics.md#contact).
 
 The distance of point i to half-space g is d = n·(p + A x̄) − h − r, linear in the body's q
 with gradient w = J(x̄)ᵀ n. The barrier (libuipc's form on D = d², D̂ = d̂²)
@@ -22,7 +23,7 @@ STEP_SLACK = 0.1     # η: a step along dq keeps this fraction of every shrinkin
 def build(t) -> SimpleNamespace:
     """Warp functions of contact for the types namespace ``t``."""
     vec12, scalar = t.vec12, t.scalar
-    zero, one, two, four = t.zero, t.one, t.two, t.four
+    zero, one, two, three, four = t.zero, t.one, t.two, t.three, t.four
     Model, Scratch = t.structs.Model, t.structs.Scratch
     world_point, jacobian_transpose, log = t.world_point, t.jacobian_transpose, t.log
     keep = scalar(1.0 - STEP_SLACK)
@@ -45,6 +46,103 @@ def build(t) -> SimpleNamespace:
         b_big = -kappa * (two * gap * ln + gap * gap / big_d)
         b_big2 = -kappa * (two * ln + four * gap / big_d - gap * gap / (big_d * big_d))
         return -kappa * gap * gap * ln, two * d * b_big, four * big_d * b_big2 + two * b_big
+
+    @wp.func
+    def lag_friction(model: Model, scratch: Scratch, env: int):
+        """The normal force dt² λ = −dt² db/dd of every pair closer than d̂ at q_n into
+        scratch.friction_normal (0 for the others): friction's weight for the step."""
+        planes = model.plane_offset.shape[0]
+        for i in range(model.point_body.shape[0]):
+            qb = scratch.q_n[env, model.point_body[i]]
+            for g in range(planes):
+                d = distance(model, qb, i, g)
+                force = zero
+                if d > zero and d < model.contact_d_hat:
+                    b, b1, b2 = barrier(model, d)
+                    force = -model.dt * model.dt * b1
+                scratch.friction_normal[env, i * planes + g] = force
+
+    @wp.func
+    def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, i: int,
+             g: int):
+        """(u₁, u₂, w₁, w₂): the tangential displacement [m] of point i along half-space g's
+        basis (t₁, t₂ = n × t₁) since the start of the step, and its gradients J(x̄)ᵀ t."""
+        b = model.point_body[i]
+        rest = model.point_rest[i]
+        moved = world_point(q[env, b], rest) - world_point(scratch.q_n[env, b], rest)
+        t1 = model.plane_tangent[g]
+        t2 = wp.cross(model.plane_normal[g], t1)
+        return (wp.dot(t1, moved), wp.dot(t2, moved), jacobian_transpose(rest, t1),
+                jacobian_transpose(rest, t2))
+
+    @wp.func
+    def smooth_friction(y: scalar, eps: scalar):
+        """(f0(y), f1(y)/y) of IPC's smoothed Coulomb friction at slip y ≥ 0 [m] with the
+        slip threshold eps = ε_v dt [m]: f0 = y beyond eps, y²/eps − y³/(3 eps²) + eps/3
+        below (C¹ at eps)."""
+        f0 = y
+        f1_over_y = zero
+        if y >= eps:
+            f1_over_y = one / y
+        else:
+            f0 = y * y / eps - y * y * y / (three * eps * eps) + eps / three
+            f1_over_y = (two * eps - y) / (eps * eps)
+        return f0, f1_over_y
+
+    @wp.func
+    def friction_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
+                        env: int):
+        """Σ μ dt²λ f0(|u|) over the pairs with a lagged normal force [J·s²]."""
+        energy = zero
+        planes = model.plane_offset.shape[0]
+        eps = model.contact_eps_velocity * model.dt
+        for i in range(model.point_body.shape[0]):
+            for g in range(planes):
+                pair = i * planes + g
+                force = scratch.friction_normal[env, pair]
+                if force > zero:
+                    u1, u2, w1, w2 = slip(model, q, scratch, env, i, g)
+                    f0, f1_over_y = smooth_friction(wp.sqrt(u1 * u1 + u2 * u2), eps)
+                    energy += model.pair_friction[pair] * force * f0
+        return energy
+
+    @wp.func
+    def add_friction(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                     hessian: int):
+        """Friction's gradient into scratch.rhs and, with ``hessian``, its PSD Hessian
+        (IPC's closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂]) into the
+        diagonal blocks. Returns the number of pairs with friction."""
+        planes = model.plane_offset.shape[0]
+        eps = model.contact_eps_velocity * model.dt
+        count = int(0)
+        for i in range(model.point_body.shape[0]):
+            b = model.point_body[i]
+            for g in range(planes):
+                pair = i * planes + g
+                weight = model.pair_friction[pair] * scratch.friction_normal[env, pair]
+                if weight > zero:
+                    count += 1
+                    u1, u2, w1, w2 = slip(model, q, scratch, env, i, g)
+                    y = wp.sqrt(u1 * u1 + u2 * u2)
+                    f0, f1_over_y = smooth_friction(y, eps)
+                    scratch.rhs[env, b] -= weight * f1_over_y * (u1 * w1 + u2 * w2)
+                    if hessian != 0:
+                        h11 = weight * f1_over_y
+                        h22 = h11
+                        h12 = zero
+                        if y >= eps:            # μλ/y³ ū ūᵀ, ū = (−u₂, u₁)
+                            c = weight / (y * y * y)
+                            h11 = c * u2 * u2
+                            h22 = c * u1 * u1
+                            h12 = -c * u1 * u2
+                        elif y > zero:          # μλ [(f1/y) I − u uᵀ / (eps² y)]
+                            c = weight / (eps * eps * y)
+                            h11 -= c * u1 * u1
+                            h22 -= c * u2 * u2
+                            h12 = -c * u1 * u2
+                        scratch.hessian[env, b] += (wp.outer(h11 * w1 + h12 * w2, w1)
+                                                    + wp.outer(h12 * w1 + h22 * w2, w2))
+        return count
 
     @wp.func
     def contact_energy(model: Model, q: wp.array2d(dtype=vec12), env: int):
@@ -113,5 +211,7 @@ def build(t) -> SimpleNamespace:
         return nearest, active
 
     return SimpleNamespace(contact_distance=distance, barrier=barrier,
+                           lag_friction=lag_friction, friction_energy=friction_energy,
+                           add_friction=add_friction,
                            contact_energy=contact_energy, add_contact=add_contact,
                            step_bound=step_bound, touching=touching)

@@ -16,7 +16,7 @@ from affine_joint_sim.contact_schema import Collision, Contact
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['SUPPORTED', 'contact_arrays', 'world_distances']
+__all__ = ['SUPPORTED', 'combined_friction', 'contact_arrays', 'world_distances']
 
 SUPPORTED = ('box', 'sphere', 'capsule')     # collision kinds with contact points so far
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)
@@ -69,6 +69,20 @@ def _half_spaces(scene) -> tuple[np.ndarray, np.ndarray, list[str]]:
     return (np.array(normals).reshape(-1, 3), np.array(offsets, dtype=np.float64), names)
 
 
+def _tangent(normal) -> np.ndarray:
+    """t₁ of a half-space's friction basis: x̂ × n normalized (ẑ × n where n is within
+    about 26° of x̂); t₂ = n × t₁."""
+    axis = np.array([0.0, 0.0, 1.0]) if abs(normal[0]) > 0.9 else np.array([1.0, 0.0, 0.0])
+    t1 = pm.cross(axis, normal)
+    return t1 / pm.norm(t1)
+
+
+def combined_friction(mu_a: float, mu_b: float) -> float:
+    """μ of a pair of surfaces: 2 μa μb / (μa + μb), the harmonic-mean rule Drake uses (near
+    the smaller one: ice under rubber is slippery; 0 if either is 0)."""
+    return 0.0 if mu_a + mu_b == 0.0 else 2.0 * mu_a * mu_b / (mu_a + mu_b)
+
+
 def world_distances(q, point_body, point_rest, point_radius, normals, offsets) -> np.ndarray:
     """Distances [m], shape (points, planes), of the contact points at states q (n_bodies, 12)
     to the half-spaces."""
@@ -109,8 +123,16 @@ def contact_arrays(scene, q0: np.ndarray) -> dict:
                       '(a step must never end inside the ground)', SimulationWarning,
                       stacklevel=3)
     normals, offsets, names = _half_spaces(scene) if on else (np.zeros((0, 3)), np.zeros(0), [])
+    body_mu = [settings.friction if body.friction is None else body.friction
+               for body in scene.bodies]
+    plane_mu = [settings.friction if half.friction is None else half.friction
+                for half in (scene.ground or [])] if on else []
     arrays = dict(has_contact=int(on), contact_d_hat=settings.d_hat,
-                  contact_kappa=settings.kappa,
+                  contact_kappa=settings.kappa, contact_eps_velocity=settings.eps_velocity,
+                  plane_tangent=np.array([_tangent(n) for n in normals]).reshape(-1, 3),
+                  pair_friction=np.array([combined_friction(body_mu[b], mu)
+                                          for b in bodies for mu in plane_mu],
+                                         dtype=np.float64),
                   point_body=np.array(bodies, dtype=np.int32),
                   point_rest=np.array(rests, dtype=np.float64).reshape(-1, 3),
                   point_radius=np.array(radii, dtype=np.float64),

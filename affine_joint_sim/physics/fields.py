@@ -5,8 +5,8 @@ device arrays the Stepper allocates (``allocate``) and the check that a host mod
 exactly the model's fields (``HostModel``). Shapes are symbolic: ``body`` (every scene body,
 fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments), the
 statistics columns, ``problem`` (PROBLEM_COLUMNS), ``point`` (contact points: collision
-vertices and sphere centres) and ``plane`` (static half-spaces); ``()`` is a plain struct
-member, not an array. Frames: world, SI units.
+vertices and sphere centres), ``plane`` (static half-spaces) and ``pair`` (point × plane);
+``()`` is a plain struct member, not an array. Frames: world, SI units.
 """
 
 from dataclasses import dataclass
@@ -114,6 +114,12 @@ FIELDS = _fields('model', [
     ('point_radius', 'scalar', ('point',), 'm', 'its radius (0: a vertex; r: a sphere centre)'),
     ('plane_normal', 'vec3', ('plane',), '-', 'unit normal of each static half-space (free side)'),
     ('plane_offset', 'scalar', ('plane',), 'm', 'its offset h: the half-space n·x ≥ h'),
+    ('plane_tangent', 'vec3', ('plane',), '-', 'first unit tangent t₁ of its friction basis '
+     '(t₂ = n × t₁)'),
+    ('pair_friction', 'scalar', ('pair',), '-', 'Coulomb μ of point i against half-space g, '
+     'pair i·planes + g'),
+    ('contact_eps_velocity', 'scalar', (), 'm/s', 'slip speed ε_v below which friction is '
+     'viscous'),
 ]) + _fields('state', [
     ('q', 'vec12', EB, 'm, -', 'ABD state [p, a1, a2, a3]'),
     ('v', 'vec12', EB, 'm/s, 1/s', 'ABD velocity q̇'),
@@ -153,6 +159,8 @@ FIELDS = _fields('model', [
     ('coupling', 'mat12', EB, 'kg^½', 'L⁻¹ H[b, parent] of the tree solve'),
     ('joint_raw', 'scalar', EJ, 'rad | m', 'raw coordinate of each joint at the Newton result '
      '(joint_raw_coordinate), for the commit'),
+    ('friction_normal', 'scalar', ('env', 'pair'), 'N·s²', 'lagged normal force dt²·λ of each '
+     '(point, half-space) pair at the start of the step (0: no friction this step)'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])
@@ -220,7 +228,8 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
     return {'env': envs, 'chunk': chunks, 'body': host.body_count,
             'free': int(np.sum(host.body_fixed == 0)),
             'joint': host.joint_count, 'point': len(host.point_body),
-            'plane': len(host.plane_offset), 'stat_int': len(STAT_INT_NAMES),
+            'plane': len(host.plane_offset), 'pair': len(host.pair_friction),
+            'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 
 

@@ -2,7 +2,8 @@
 
 E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q)
 + Σ_joints φ(x(q)) (limit, drive, damping: physics.joint_terms) + dt² Σ b(d) (contact with
-static half-spaces: physics.contact, +∞ on penetration); the joint terms carry no dt².
+static half-spaces: physics.contact, +∞ on penetration) + Σ μ dt²λ f0(|u|) (lagged friction);
+the joint terms carry no dt².
 kinetic_scale is 1 (BDF1) or 9/4 (BDF2). See docs/physics.md#incremental-potential.
 """
 
@@ -21,7 +22,7 @@ def build(t) -> SimpleNamespace:
     affine, mass_times, ortho_energy = t.affine, t.mass_times, t.ortho_energy
     joint_energy, joint_coordinate, coordinate_terms = (t.joint_energy, t.joint_coordinate,
                                                         t.coordinate_terms)
-    contact_energy = t.contact_energy
+    contact_energy, friction_energy = t.contact_energy, t.friction_energy
 
     @wp.func
     def incremental_potential(model: Model, state: State, control: Control,
@@ -44,7 +45,7 @@ def build(t) -> SimpleNamespace:
                                                  joint_coordinate(model, q, state, env, k), bdf2)
                     energy += e
         if model.has_contact != 0:
-            energy += contact_energy(model, q, env)
+            energy += contact_energy(model, q, env) + friction_energy(model, q, scratch, env)
         return energy
 
     return SimpleNamespace(incremental_potential=incremental_potential)

@@ -2,10 +2,11 @@
 
 One thread per environment (environments first_env, first_env + 1, ...: the CPU steps a batch
 in several launches at once, each counting its problems in its own row ``chunk``): prediction,
-explicit commands, Newton with line search, then commit or reject and the statistics. No host
-sync inside a step. The kernel gets a Warp module of its own per precision
-(``module="unique"``) and no adjoint: nothing differentiates the step, and Warp's generated
-backward pass made it compile several times slower (docs/architecture.md#measured-figures).
+friction's lagged normal forces (with contact), explicit commands, Newton with line search,
+then commit or reject and the statistics. No host sync inside a step. The kernel gets a Warp
+module of its own per precision (``module="unique"``) and no adjoint: nothing differentiates
+the step, and Warp's generated backward pass made it compile several times slower
+(docs/architecture.md#measured-figures).
 """
 
 from types import SimpleNamespace
@@ -21,6 +22,7 @@ def build(t) -> SimpleNamespace:
                                       t.structs.Scratch)
     integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
     newton, finish, write_stats = t.newton, t.finish, t.write_stats
+    lag_friction = t.lag_friction
     largest_gap, largest_strain = t.largest_gap, t.largest_strain
     salt = t.source_salt
 
@@ -31,6 +33,8 @@ def build(t) -> SimpleNamespace:
         env = first_env + wp.tid()
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env)
         predict(model, state, scratch, env, bdf2, force_scale)
+        if model.has_contact != 0:
+            lag_friction(model, scratch, env)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
         iterations, halvings, failures, converged, residual = newton(
             model, state, control, scratch, env, kinetic_scale, bdf2)
