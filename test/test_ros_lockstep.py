@@ -111,10 +111,12 @@ def _two_controller_run(tmp_path, ros_node, wait_for, controllers, publishers):
     node = LoggedNode(tmp_path, ros_node, wait_for, '--scene', 'double_pendulum', '--mode',
                       'lockstep', '--lockstep-publishers', publishers, '--duration', '0.3')
     states = Inbox(ros_node, 'joint_states')
-    controllers('shoulder', 0.6, '--name', 'shoulder_controller')
-    controllers('elbow', -0.4, '--name', 'elbow_controller')
-    assert wait_for(lambda: node.process.poll() is not None, timeout=60.0)
+    started = [controllers('shoulder', 0.6, '--name', 'shoulder_controller'),
+               controllers('elbow', -0.4, '--name', 'elbow_controller')]
+    ended = wait_for(lambda: node.process.poll() is not None, timeout=60.0)
     output = node.stop()
+    assert ended, (f'the node did not end within 60 s (controllers\' exit codes: '
+                   f'{[p.poll() for p in started]}); its output:\n{output[-4000:]}')
     assert 'Traceback' not in output and '30 steps' in output, output
     by_stamp = {}
     for m in states.messages:
