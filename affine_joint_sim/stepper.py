@@ -50,6 +50,7 @@ _PROBLEMS = {      # by physics.fields.PROBLEM_NAMES
 _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_rejected')
 # Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU.
 _OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort'),
+                  'contact_record': ('nearest_seen', 'most_contacts'),
                   'stats': ('stats_int', 'stats_float'), 'bodies': ('q', 'v'),
                   'coordinate': ('joint_coordinate',)}
 
@@ -213,6 +214,8 @@ class Stepper:
         if tau.shape not in ((len(index),), (self._envs, len(index))):
             raise ValueError(f'set_torques: expected shape ({len(index)},) or ({self._envs}, '
                              f'{len(index)}) in command_joint_names order, got {tau.shape}')
+        if not len(index):              # no joint takes a command (a lone box): nothing to set
+            return
         bad = ~np.isfinite(tau).reshape(-1, len(index)).all(axis=0)
         if bad.any():
             raise ValueError('set_torques: torque must be finite for ' + ', '.join(
@@ -442,6 +445,17 @@ class Stepper:
 
     # ---- internals --------------------------------------------------------------------------
 
+    @property
+    def contact_record(self) -> dict | None:
+        """In a scene with contact, ``min_distance``: the smallest distance of a body to the
+        ground at the end of any step since this Stepper was made [m] (over every environment,
+        resets included: +inf before a first step), and ``most_contacts``: the most contact
+        pairs at once; None without contact."""
+        if not self._host.has_contact:
+            return None
+        return {'min_distance': float(self._read('nearest_seen').min()),
+                'most_contacts': int(self._read('most_contacts').max())}
+
     def _allocate(self):
         k, h, dev, n = self._k, self._host, self.device, self._envs
         sizes = array_sizes(h, n, len(self._chunks))
@@ -461,6 +475,7 @@ class Stepper:
         self._terms, self._terms_at = [], -1
         self._downloads = Downloads(dev, {group: {name: getattr(state, name) for name in names}
                                           for group, names in _OUTPUT_GROUPS.items()}, separate)
+        state.nearest_seen.fill_(float('inf'))
         self._problems_host = host_copy(state.problem_counts, separate)
         self._problems = self._problems_host.numpy()
         self._problem_totals = np.zeros(len(PROBLEM_COLUMNS), dtype=np.int64)

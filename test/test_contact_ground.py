@@ -4,6 +4,7 @@ barrier (the numbers of libuipc's defaults), a drop that never penetrates and ob
 and the scene checks."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper
 
 G = 9.81
+SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
 
 
 def _box_scene(height=0.2, d_hat=0.01, kappa=1.0e9, ground=None, dt=0.01, **extra):
@@ -299,3 +301,31 @@ def test_the_friction_gradient_and_hessian_match_finite_differences(slip):
     np.testing.assert_allclose(hessian, fd_hessian, rtol=1e-4,
                                atol=1e-5 * np.abs(fd_hessian).max())
     assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()
+
+
+def test_the_contact_record_keeps_the_smallest_distance_and_the_most_contacts():
+    sim = Stepper(_box_scene(0.1))
+    assert sim.contact_record == {'min_distance': math.inf, 'most_contacts': 0}
+    nearest = math.inf
+    for _ in range(100):
+        sim.step()
+        nearest = min(nearest, sim.stats['min_distance'])
+    assert sim.contact_record == {'min_distance': nearest, 'most_contacts': 4}
+    sim.reset()                     # the record spans resets, like the problem totals
+    assert sim.contact_record['min_distance'] == nearest
+    assert Stepper(Scene.load(SCENES / 'pendulum.yaml')).contact_record is None
+
+
+def test_the_command_line_run_reports_contact_and_refuses_a_touching_scene(tmp_path):
+    from helpers.cli import cli
+    (tmp_path / 'drop.yaml').write_text(_box_scene(0.1).to_yaml())
+    done = cli('run', '--scene', tmp_path / 'drop.yaml', '--mode', 'fast', '--duration', 1.0)
+    assert done.returncode == 0, done.stderr
+    line = next(s for s in done.stdout.splitlines() if s.startswith('contact:'))
+    distance = float(line.split('ground ')[1].split(' m')[0])
+    assert 0.0 < distance < 0.01 and line.endswith('at most 4 contacts at once')
+    (tmp_path / 'touching.yaml').write_text(_box_scene(0.04).to_yaml())
+    done = cli('run', '--scene', tmp_path / 'touching.yaml', '--mode', 'fast')
+    assert done.returncode == 2
+    assert len(done.stderr.strip().splitlines()) == 1
+    assert "body 'box' starts 0.01 m inside ground" in done.stderr

@@ -166,6 +166,8 @@ def build(t) -> SimpleNamespace:
             nearest, contacts = touching(model, state.q, env)
             state.stats_float[env, s_distance] = nearest
             state.stats_int[env, s_contacts] = contacts
+            state.nearest_seen[env] = wp.min(state.nearest_seen[env], nearest)
+            state.most_contacts[env] = wp.max(state.most_contacts[env], contacts)
         not_converged = int(0)
         if converged == 0 and rejected == 0:
             not_converged = 1

@@ -131,6 +131,9 @@ FIELDS = _fields('model', [
     ('joint_position', 'scalar', EJ, 'rad | m', 'reported coordinate (angle per angle_mode)'),
     ('joint_velocity', 'scalar', EJ, 'rad/s | m/s', 'Δx / dt of the last step'),
     ('joint_effort', 'scalar', EJ, 'N·m | N', 'torque or force applied in the last step'),
+    ('nearest_seen', 'scalar', E, 'm', 'smallest min_distance at the end of a step since the '
+     'Stepper was made (+inf before; scenes with contact)'),
+    ('most_contacts', 'int32', E, '-', 'most contacts at the end of a step since then'),
     ('stats_int', 'int32', ('env', 'stat_int'), '-', 'STAT_INT_NAMES of the last step'),
     ('stats_float', 'scalar', ('env', 'stat_float'), 'm/s, m, -', 'STAT_FLOAT_NAMES'),
     ('problem_counts', 'int32', ('chunk', 'problem'), '-', 'environments of the last step '

@@ -570,7 +570,8 @@ class SimNode(Node):
 
     def summary(self) -> dict:
         """Figures of the whole run, resets included: steps, simulated and wall time, steps/s,
-        real-time factor, commands, and the steps that did not converge or were rejected."""
+        real-time factor, commands, the steps that did not converge or were rejected, and with
+        contact the smallest distance seen and the most contacts at once."""
         wall = self._last_step_wall - self._started
         steps, sim_time = self._run_steps, self._run_steps * self.sim.scene.dt
         return {'steps': steps, 'sim_time': sim_time, 'wall_time': wall,
@@ -585,4 +586,5 @@ class SimNode(Node):
                 'surplus_answers': self.gate.surplus,
                 'bag': self.config['record'] or None,
                 'rotation_strain': float(self.sim.stats['rotation_strain']),
+                'contact': self.sim.contact_record,
                 'recording_stopped': self.recording.stopped}

@@ -92,6 +92,10 @@ def print_summary(summary: dict) -> None:
                                      if rejected >= summary['steps'] > 0 else ''))
     print(f'largest ‖AAᵀ − I‖ of a moving body at the end: {summary["rotation_strain"]:.2g} '
           '(stats rotation_strain; viewers draw the nearest rotation)')
+    contact = summary.get('contact')
+    if contact is not None:
+        print(f'contact: smallest distance to the ground {contact["min_distance"]:.3g} m, at '
+              f'most {contact["most_contacts"]} contacts at once')
     if summary['bag']:
         stopped = summary['recording_stopped']
         print(f'bag: {Path(summary["bag"]).resolve()}' +
