@@ -119,32 +119,36 @@ def _near_ground_state(scene, rng):
     return q
 
 
-def test_the_barrier_gradient_and_hessian_match_finite_differences():
-    rng = np.random.default_rng(3)
-    with_contact = Stages(_box_scene())
-    without = Stages(Scene.from_dict({**_box_scene().model_dump(exclude_none=True),
-                                      'ground': None, 'contact': None}))
-    q = _near_ground_state(_box_scene(), rng)
-    q_tilde = q + 1e-3 * rng.normal(size=q.shape)
+def _contact_terms(with_contact, without, q, q_tilde, step):
+    """(gradient, Hessian, and their central differences with ``step``) of the contact terms
+    alone at q: the assembly of a scene with contact minus that of the same scene without."""
+    def gradient_at(x):
+        return (with_contact.newton_system(x, q_tilde)[0]
+                - without.newton_system(x, q_tilde)[0])
 
-    def contact_energy(x):
+    def energy_at(x):
         return with_contact.energy(x, q_tilde) - without.energy(x, q_tilde)
 
-    gradient = (with_contact.newton_system(q, q_tilde)[0]
-                - without.newton_system(q, q_tilde)[0])
     hessian = (with_contact.newton_system(q, q_tilde)[1]
                - without.newton_system(q, q_tilde)[1])
-    step = 1e-7
-    fd_gradient = np.zeros(12)
-    fd_hessian = np.zeros((12, 12))
+    fd_gradient, fd_hessian = np.zeros(12), np.zeros((12, 12))
     for i in range(12):
         e = np.zeros((1, 12))
         e[0, i] = step
-        fd_gradient[i] = (contact_energy(q + e) - contact_energy(q - e)) / (2 * step)
-        fd_hessian[:, i] = (with_contact.newton_system(q + e, q_tilde)[0]
-                            - without.newton_system(q + e, q_tilde)[0]
-                            - with_contact.newton_system(q - e, q_tilde)[0]
-                            + without.newton_system(q - e, q_tilde)[0]) / (2 * step)
+        fd_gradient[i] = (energy_at(q + e) - energy_at(q - e)) / (2 * step)
+        fd_hessian[:, i] = (gradient_at(q + e) - gradient_at(q - e)) / (2 * step)
+    return gradient_at(q), hessian, fd_gradient, fd_hessian
+
+
+def test_the_barrier_gradient_and_hessian_match_finite_differences():
+    rng = np.random.default_rng(3)
+    scene = _box_scene()
+    with_contact, without = Stages(scene), Stages(scene.model_copy(
+        update={'ground': None, 'contact': None}))
+    q = _near_ground_state(scene, rng)
+    q_tilde = q + 1e-3 * rng.normal(size=q.shape)
+    gradient, hessian, fd_gradient, fd_hessian = _contact_terms(with_contact, without, q,
+                                                                q_tilde, step=1e-7)
     assert np.abs(fd_gradient).max() > 0.0
     np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
                                atol=1e-6 * np.abs(fd_gradient).max())
@@ -278,23 +282,8 @@ def test_the_friction_gradient_and_hessian_match_finite_differences(slip):
     # a lagged normal force on every corner (8 points × 1 plane), as at the step start
     with_contact.scratch.friction_normal.assign(np.full((1, 8), 2.5e-4))
     q_tilde = q.copy()
-
-    def part(stages, x):
-        return stages.newton_system(x, q_tilde)
-
-    def energy(x):
-        return with_contact.energy(x, q_tilde) - without.energy(x, q_tilde)
-
-    gradient = part(with_contact, q)[0] - part(without, q)[0]
-    hessian = part(with_contact, q)[1] - part(without, q)[1]
-    step = 1e-8
-    fd_gradient, fd_hessian = np.zeros(12), np.zeros((12, 12))
-    for i in range(12):
-        e = np.zeros((1, 12))
-        e[0, i] = step
-        fd_gradient[i] = (energy(q + e) - energy(q - e)) / (2 * step)
-        fd_hessian[:, i] = (part(with_contact, q + e)[0] - part(without, q + e)[0]
-                            - part(with_contact, q - e)[0] + part(without, q - e)[0]) / (2 * step)
+    gradient, hessian, fd_gradient, fd_hessian = _contact_terms(with_contact, without, q,
+                                                                q_tilde, step=1e-8)
     np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
                                atol=1e-6 * np.abs(fd_gradient).max())
     # IPC's closed forms are the exact Hessian of the smoothed friction, and PSD

@@ -14,6 +14,7 @@ import numpy as np
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
 from affine_joint_sim.rotations import rpy_matrix
+from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
 
 __all__ = ['SUPPORTED', 'combined_friction', 'contact_arrays', 'world_distances']
@@ -36,7 +37,6 @@ def _shape_collision(shape) -> Collision:
 def _points(geometry: Collision, where: str) -> list[tuple[np.ndarray, float]]:
     """(x̄, r) of one geometry's contact points in the body frame."""
     if geometry.kind not in SUPPORTED:
-        from affine_joint_sim.scene import SceneError
         raise SceneError(f'{where}: {geometry.kind} collision geometry is not supported yet '
                          f'(supported: {", ".join(SUPPORTED)})')
     rotation = rpy_matrix(*geometry.origin.rpy)
@@ -150,7 +150,6 @@ def _refuse_touching(scene, q0, arrays, names) -> None:
                                 arrays['plane_offset'])
     i, g = np.unravel_index(int(np.argmin(distances)), distances.shape)
     if distances[i, g] <= 0.0:
-        from affine_joint_sim.scene import SceneError
         body = scene.bodies[arrays['point_body'][i]].name
         raise SceneError(f'body {body!r} starts {-distances[i, g]:.6g} m inside {names[g]} '
                          f'(distance {distances[i, g]:.6g} m): a scene with contact must '

@@ -76,11 +76,15 @@ def build(t) -> SimpleNamespace:
     def update_test(model: Model, scratch: Scratch, env: int, disp_tol: scalar,
                     affine_tol: scalar):
         """(residual [m/s]: the larger update size / dt, 1 if both sizes are within their
-        tolerances) of the update scratch.dq (see ``update_size``)."""
+        tolerances and, with contact, the full step is collision-free) of the update
+        scratch.dq from scratch.q_start (see ``update_size``, contact's ``step_bound``)."""
         disp, affine_max = update_size(model, scratch, env)
         small = int(0)
         if disp <= disp_tol and affine_max <= affine_tol:
             small = 1
+            if model.has_contact != 0:      # converged on a full, collision-free step only
+                if step_bound(model, scratch, env) < one:
+                    small = 0
         return wp.max(disp, affine_max) / model.dt, small
 
     @wp.func
@@ -272,9 +276,6 @@ def build(t) -> SimpleNamespace:
                                      bdf2, 0)
                 solve_factored(model, scratch, env)
                 residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
-                if small != 0 and model.has_contact != 0:
-                    if step_bound(model, scratch, env) < one:
-                        small = 0
                 if untrusted == 0 and small != 0:
                     move(model, q, scratch, env, one, 0)
                     converged = 1
@@ -283,9 +284,6 @@ def build(t) -> SimpleNamespace:
             solve_tree(model, scratch, env)
             factored = 1
             residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
-            if small != 0 and model.has_contact != 0:   # converged on a full, free step only
-                if step_bound(model, scratch, env) < one:
-                    small = 0
             if small != 0:
                 move(model, q, scratch, env, one, 0)
                 converged = 1
