@@ -20,14 +20,18 @@ CONTROLLER = Path(__file__).resolve().parent / 'helpers' / 'plain_controller.py'
 def test_gate_counts_answers_to_the_waiting_state_and_drops_stale_ones():
     gate = LockstepGate(publishers=2, clock=FakeClock(10.0))
     gate.expect(30 * DT_NS)
+    shoulder, elbow, arrays = ('cmd', frozenset({'shoulder'})), ('cmd', frozenset({'elbow'})), \
+        ('efforts', None)
     assert not gate.released
-    assert gate.answer(30 * DT_NS) and not gate.released
-    assert not gate.answer(29 * DT_NS) and gate.stale == 1      # answers a state that is gone
-    assert gate.answer(0) and gate.released                      # unstamped: the current state
-    assert gate.surplus == 0
-    assert gate.answer(30 * DT_NS) and gate.surplus == 1         # a third answer: surplus
+    assert gate.answer(30 * DT_NS, shoulder) == 'counted' and not gate.released
+    assert gate.answer(29 * DT_NS, elbow) == 'stale' and gate.stale == 1   # a state that is gone
+    assert gate.answer(30 * DT_NS, shoulder) == 'repeat' and not gate.released  # counts once
+    assert gate.answer(0, elbow) == 'counted' and gate.released   # unstamped: the current state
+    assert (gate.surplus, gate.repeats) == (0, 1)
+    assert gate.answer(30 * DT_NS, arrays) == 'surplus' and gate.surplus == 1   # a third source
     gate.expect(31 * DT_NS)
     assert not gate.released and gate.answers == 0 and gate.surplus == 1
+    assert gate.answer(0, shoulder) == 'counted'      # a new state: every source counts again
 
 
 def test_gate_republishes_and_reports_while_it_waits():
@@ -39,7 +43,7 @@ def test_gate_republishes_and_reports_while_it_waits():
     assert gate.republish_due() and not gate.republish_due()
     clock.now += 2.0
     assert gate.report_due() == pytest.approx(2.25) and gate.report_due() is None
-    gate.answer(0)
+    gate.answer(0, 'source')
     clock.now += 5.0
     assert not gate.republish_due() and gate.report_due() is None
 
@@ -145,7 +149,9 @@ def test_more_controllers_than_lockstep_publishers_is_said(
     assert 'elbow_controller' in output and 'shoulder_controller' in output
 
 
-def test_answers_beyond_lockstep_publishers_are_counted_and_said(tmp_path, ros_node, wait_for):
+def test_answers_beyond_lockstep_publishers_and_repeats_are_counted_and_said(
+        tmp_path, ros_node, wait_for):
+    from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
     from std_srvs.srv import SetBool
 
@@ -153,12 +159,17 @@ def test_answers_beyond_lockstep_publishers_are_counted_and_said(tmp_path, ros_n
     pause = '/affine_joint_sim/pause'
     assert call(ros_node, wait_for, SetBool, pause, SetBool.Request(data=True)).success
     efforts = publisher(ros_node, wait_for, 'effort_commands')
-    for torque in (0.1, 0.2):                  # two answers to the one state paused on
+    commands = publisher(ros_node, wait_for, 'joint_commands')
+    for torque in (0.1, 0.2):                  # one source twice: a repeat, counted once
         efforts.publish(Float64MultiArray(data=[torque]))
+    assert wait_for(lambda: node.said('a second answer for the same joints to the state at '
+                                      't = 0.000000 s'), timeout=30.0)
+    commands.publish(JointState(name=['shoulder'], effort=[0.3]))    # a second source
     assert wait_for(lambda: node.said('answer 2 to the state at t = 0.000000 s'), timeout=30.0)
     output = node.stop()
-    assert '0 steps' in output and 'commands taken: 2' in output, output
+    assert '0 steps' in output and 'commands taken: 3' in output, output
     assert '1 lockstep answers beyond lockstep_publishers' in output, output
+    assert '1 lockstep answers repeated for the same joints' in output, output
 
 
 def test_a_malformed_answer_is_dropped_and_releases_no_step(tmp_path, ros_node, wait_for):

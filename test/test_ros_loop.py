@@ -40,7 +40,7 @@ def test_a_command_applies_to_the_next_step_and_lockstep_waits_for_its_answer():
     loop.gate.expect(loop.sim_time_ns)
     assert loop.wait_before_step('lockstep', paused=False) == float('inf')
     loop.commands.torque('shoulder', 2.0)
-    assert loop.gate.answer(0)
+    assert loop.gate.answer(0, ('joint_commands', None)) == 'counted'
     assert loop.wait_before_step('lockstep', paused=False) == 0.0
     loop.step()
     assert loop.sim.efforts[0] == 2.0

@@ -4,11 +4,12 @@ On every ``joint_states`` message it answers with one command, the torques
 τ = kp (θ* − θ) − kd ω for the joints it has targets for, so against a ``lockstep`` node the
 closed loop is deterministic. It answers each state once: a copy of the state it has just
 answered (the node republishes a waiting state every 0.2 s, and a busy process can find the
-original and a copy queued together) is skipped, since a second answer would count for the
-node's next state. The command goes out on ``joint_commands`` (a JointState: names
-and efforts, stamped with the state it answers) or, as ros2_control's JointGroupEffortController
-does, on ``effort_commands`` (a Float64MultiArray: one effort per joint of ``joint_states``, 0
-for joints without a target; the node's ``command_joints`` default has that order). Being PD
+original and a copy queued together) is skipped: the node counts a second answer once, but an
+unstamped one (an array) that arrives after the step would answer the node's next state. The
+command goes out on ``joint_commands`` (a JointState: names and efforts, stamped with the
+state it answers) or, as ros2_control's JointGroupEffortController does, on
+``effort_commands`` (a Float64MultiArray: one effort per joint of ``joint_states``, 0 for
+joints without a target; the node's ``command_joints`` default has that order). Being PD
 (no gravity model, no integral term), it settles ``m g l sin θ* / kp`` short of a target held
 against gravity.
 """

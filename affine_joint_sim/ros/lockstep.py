@@ -6,10 +6,13 @@ messages on the answer topics (``ros.topics.ANSWER_KEYS``: ``joint_commands``,
 whatever state is current; the array topics carry no stamp). A command stamped with another
 time answers a state that is gone (a controller that lags or restarted): it is dropped, counted
 and reported, so every step applies exactly the answers to its own state and the loop stays
-deterministic. An answer beyond ``publishers`` to one state (a controller answering the state
-again when it is republished, or more controllers than ``publishers``) still applies to that
-state's step, the latest command winning, but does not count towards the next state: it is
-counted as surplus.
+deterministic. Answers are counted by source: the topic and the joints a message commands (one
+controller per set of joints). A second answer from the same source to one state (a controller
+answering the state again when it is republished, or its lost answer resent) applies to that
+state's step, the latest command winning, but counts once: it is counted as a repeat, so one
+controller answering twice never stands in for another whose answer is still on its way. An
+answer from a source beyond ``publishers`` (more controllers than ``publishers``) also applies
+to that step and is counted as surplus.
 
 While it waits, the gate says when to publish the waiting state again (a controller that
 subscribed late with volatile QoS, or restarted, gets it) and when to log that it is waiting.
@@ -38,26 +41,39 @@ class LockstepGate:
         self.report_every = report_every
         self.clock = clock
         self.stamp_ns = 0
-        self.answers = 0
         self.stale = 0          # commands dropped for answering another state, since start
-        self.surplus = 0        # answers beyond ``publishers`` to one state, since start
+        self.surplus = 0        # answers from sources beyond ``publishers``, since start
+        self.repeats = 0        # second answers from one source to one state, since start
+        self._sources = set()   # sources that answered the waiting state
         self._since = self._published_at = self._reported_at = clock()
 
     def expect(self, stamp_ns: int) -> None:
         """A state stamped ``stamp_ns`` was published: count answers to it from now on."""
         self.stamp_ns = stamp_ns
-        self.answers = 0
+        self._sources = set()
         self._since = self._published_at = self._reported_at = self.clock()
 
-    def answer(self, stamp_ns: int) -> bool:
-        """Count a command stamped ``stamp_ns`` (0: unstamped); False if it answers another
-        state (it is then stale: drop it). One beyond ``publishers`` is counted as surplus."""
+    def answer(self, stamp_ns: int, source) -> str:
+        """Count a command stamped ``stamp_ns`` (0: unstamped) from ``source`` (hashable: the
+        topic and the joints it commands). Returns 'stale' if it answers another state (drop
+        it), 'repeat' if ``source`` answered this state already, 'surplus' if it is a source
+        beyond ``publishers``, else 'counted'; all but 'stale' apply to the waiting state."""
         if stamp_ns not in (0, self.stamp_ns):
             self.stale += 1
-            return False
-        self.answers += 1
-        self.surplus += self.answers > self.publishers
-        return True
+            return 'stale'
+        if source in self._sources:
+            self.repeats += 1
+            return 'repeat'
+        self._sources.add(source)
+        if len(self._sources) > self.publishers:
+            self.surplus += 1
+            return 'surplus'
+        return 'counted'
+
+    @property
+    def answers(self) -> int:
+        """Sources that answered the waiting state."""
+        return len(self._sources)
 
     @property
     def released(self) -> bool:

@@ -242,18 +242,26 @@ class SimNode(Node):
                     header = getattr(msg, 'header', None)    # arrays carry no stamp
                     stamp = header.stamp.sec * 1_000_000_000 + header.stamp.nanosec \
                         if header is not None else 0
-                    if not self.gate.answer(stamp):
+                    joints = getattr(msg, 'name', None)      # arrays command every joint
+                    source = (name, None if joints is None else frozenset(joints))
+                    verdict = self.gate.answer(stamp, source)
+                    if verdict == 'stale':
                         self._reject(name, f'a command stamped t = {stamp * 1e-9:.6f} s answers '
                                      f'no waiting state (the node waits on t = '
                                      f'{self.gate.stamp_ns * 1e-9:.6f} s): dropped '
                                      f'({self.gate.stale} so far)', kind='stale')
                         return
-                    if self.gate.answers > self.gate.publishers:
+                    if verdict == 'surplus':
                         self._reject(name, f'answer {self.gate.answers} to the state at t = '
                                      f'{self.gate.stamp_ns * 1e-9:.6f} s, lockstep_publishers '
                                      f'is {self.gate.publishers}: it applies to that step '
                                      '(latest per joint wins) and answers no later state '
                                      f'({self.gate.surplus} so far)', kind='surplus')
+                    if verdict == 'repeat':
+                        self._reject(name, 'a second answer for the same joints to the state '
+                                     f'at t = {self.gate.stamp_ns * 1e-9:.6f} s: it applies '
+                                     'to that step (latest per joint wins) and counts once '
+                                     f'({self.gate.repeats} so far)', kind='repeat')
                     if self.gate.released:
                         self._wake.notify()
                 self.taken += 1
@@ -584,6 +592,7 @@ class SimNode(Node):
                 'dropped': {'stale answers': self.gate.stale, 'oversized': self.oversized,
                             'malformed': self.malformed},
                 'surplus_answers': self.gate.surplus,
+                'repeated_answers': self.gate.repeats,
                 'bag': self.config['record'] or None,
                 'rotation_strain': float(self.sim.stats['rotation_strain']),
                 'contact': self.sim.contact_record,

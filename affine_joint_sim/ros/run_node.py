@@ -78,11 +78,13 @@ def print_summary(summary: dict) -> None:
     print('final angles [rad]: ' + ', '.join(f'{k} {v:.6f}'
                                               for k, v in summary['angles'].items()))
     dropped = {k: v for k, v in summary['dropped'].items() if v}
-    surplus = summary['surplus_answers']
+    surplus, repeated = summary['surplus_answers'], summary['repeated_answers']
     print(f'commands taken: {summary["taken"]}' + (
         '; dropped: ' + ', '.join(f'{v} {k}' for k, v in dropped.items()) if dropped else '') + (
         f'; {surplus} lockstep answers beyond lockstep_publishers (applied to the state they '
-        'answered, not to the next)' if surplus else ''))
+        'answered, not to the next)' if surplus else '') + (
+        f'; {repeated} lockstep answers repeated for the same joints (applied, counted once)'
+        if repeated else ''))
     problems = summary['problems']
     rejected = max(problems['non_finite'], problems['angle_aliased'])   # a step may have both
     if rejected or problems['not_converged']:
