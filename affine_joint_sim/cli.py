@@ -105,7 +105,7 @@ def _controller(args, ros_args) -> int:
 
 def _demo(args, ros_args) -> int:
     from affine_joint_sim.ros import demo
-    return demo.run_demo(args.scene, dict(args.target), args.duration, args.mode, args.record,
+    return demo.run_demo(args.scene, dict(args.target or ()), args.duration, args.mode, args.record,
                          args.kp, args.kd, interface=args.interface)
 
 
@@ -253,7 +253,8 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument('--scene', default='pendulum', help='scene file or packaged name')
     demo.add_argument('--target', type=_assignment, action='append',
                       default=None, metavar='JOINT=RAD', help='target angle (repeatable; '
-                      'default shoulder=1.0)')
+                      'default: shoulder=1.0 on the pendulum, else every moving joint\'s '
+                      'initial position, holding the start pose)')
     demo.add_argument('--duration', type=_positive, default=3.0,
                       help='simulated seconds (> 0)')
     demo.add_argument('--mode', default='lockstep', choices=MODES,
@@ -345,8 +346,6 @@ def main(argv=None) -> int:
         at = argv.index(ROS_ARGS)
         argv, ros_args = argv[:at], argv[at + 1:]
     args = build_parser().parse_args(argv)
-    if args.command == 'demo' and args.target is None:
-        args.target = [('shoulder', 1.0)]
     try:
         return args.func(args, ros_args)
     except (SceneError, FileNotFoundError, ValueError) as exc:

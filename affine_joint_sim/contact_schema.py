@@ -111,9 +111,12 @@ class CylinderGeometry(StrictModel):
 
 
 class MeshGeometry(StrictModel):
-    """A mesh file: ``uri`` (a path, ``file://`` or ``package://``) and ``scale`` per axis."""
+    """A mesh file: ``uri`` (a path relative to the scene file, ``file://`` or, in a URDF,
+    ``package://``), ``path`` the file found for it (a URDF's collisions: by the package
+    resolution of its visuals; None: ``uri`` itself) and ``scale`` per axis."""
 
     uri: str
+    path: str | None = None
     scale: Vec3 = (1.0, 1.0, 1.0)
 
 

@@ -10,8 +10,8 @@ import numpy as np
 
 from affine_joint_sim import portable_math as pm
 
-__all__ = ['rotation_matrix', 'rpy_matrix', 'pose_matrix', 'quaternion_matrix',
-           'quaternion_from_matrix', 'axis_rotation']
+__all__ = ['rotation_matrix', 'rpy_matrix', 'rpy_from_matrix', 'pose_matrix',
+           'quaternion_matrix', 'quaternion_from_matrix', 'axis_rotation']
 
 
 def rotation_matrix(orientation) -> np.ndarray:
@@ -31,6 +31,17 @@ def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
     ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
     rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
     return pm.matmul(rz, pm.matmul(ry, rx))
+
+
+def rpy_from_matrix(rot: np.ndarray) -> list[float]:
+    """[roll, pitch, yaw] [rad] with rpy_matrix(roll, pitch, yaw) = ``rot`` (pitch in
+    [−π/2, π/2]; at ±π/2, where only roll ∓ yaw is defined, roll is 0)."""
+    m = rot
+    across = float(np.sqrt(m[0, 0] * m[0, 0] + m[1, 0] * m[1, 0]))     # |cos pitch|
+    pitch = pm.atan2(-m[2, 0], across)
+    if across < 1.0e-12:
+        return [0.0, pitch, pm.atan2(-m[0, 1], m[1, 1])]
+    return [pm.atan2(m[2, 1], m[2, 2]), pitch, pm.atan2(m[1, 0], m[0, 0])]
 
 
 def pose_matrix(xyz, rpy) -> np.ndarray:

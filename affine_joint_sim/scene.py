@@ -8,6 +8,7 @@ is valid; unknown keys are errors, never silently ignored.
 import math
 import re
 from pathlib import Path
+from urllib.parse import unquote
 from typing import Annotated, Literal
 
 import yaml
@@ -325,7 +326,8 @@ class Scene(SceneSettings):
     def from_urdf(cls, path, **overrides) -> 'Scene':
         """A URDF robot (README.md#robots-from-urdf), with the overrides of a scene YAML's
         ``urdf:`` entry (``name``, ``dt``, ``gravity``, ``solver``, ``fixed_base``,
-        ``merge_fixed``, ``initial_positions``, ``package_paths``, ``joints``)."""
+        ``merge_fixed``, ``initial_positions``, ``package_paths``, ``joints``, ``base``,
+        ``contact``, ``ground``)."""
         return cls._from_urdf(Path(path), overrides, source=str(path))
 
     @classmethod
@@ -371,6 +373,7 @@ class Scene(SceneSettings):
             data['solver'] = dict(solver_defaults, **data.get('solver', {}))
         if isinstance(data, dict) and 'urdf' in data:
             return cls._from_urdf_entry(data, base_dir, source)
+        _find_collision_meshes(data, Path(base_dir or '.'))
         return cls.from_dict(data, source=source)
 
     @classmethod
@@ -467,6 +470,24 @@ class Scene(SceneSettings):
                     seen.add(other)
                     stack.append((other, path + [name]))
         return []
+
+
+def _find_collision_meshes(data, base_dir: Path) -> None:
+    """Give each collision mesh of a scene dict without a ``path`` the file its ``uri`` names
+    relative to ``base_dir`` (the scene file's directory), when that file exists (else the
+    contact model says it is not found)."""
+    bodies = data.get('bodies') if isinstance(data, dict) else None
+    for body in bodies if isinstance(bodies, list) else []:
+        collision = body.get('collision') if isinstance(body, dict) else None
+        for geometry in collision if isinstance(collision, list) else []:
+            mesh = geometry.get('mesh') if isinstance(geometry, dict) else None
+            if isinstance(mesh, dict) and isinstance(mesh.get('uri'), str) \
+                    and mesh.get('path') is None:
+                uri = mesh['uri']
+                found = (Path(unquote(uri[len('file://'):])) if uri.startswith('file://')
+                         else base_dir / uri)
+                if found.is_file():
+                    mesh['path'] = str(found.resolve())
 
 
 class _SceneLoader(yaml.SafeLoader):

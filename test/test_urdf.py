@@ -720,8 +720,8 @@ def test_min_mass_gives_a_massless_moving_link_a_mass(tmp_path):
 
 def test_a_floating_robot_is_told_it_falls(tmp_path):
     """Before, fixed_base: false fell forever without a word."""
-    with pytest.warns(SimulationWarning, match='the robot floats .fixed_base: false. and nothing '
-                                               'holds it'):
+    with pytest.warns(SimulationWarning, match='the robot floats .fixed_base: false. and there '
+                                               'is no ground'):
         scene = load(tmp_path, _limited_pendulum(-1, 1).replace(
             '<link name="base"/>', '<link name="base">' + inertial(2.0) + '</link>'),
             fixed_base=False)

@@ -3,8 +3,11 @@ half-spaces (the model fields of physics.fields under ``has_contact``), and the 
 scene whose initial state already touches (docs/physics.md#contact).
 
 A contact point is a rest point x̄ of a free body (COM-centred body frame) with a radius r: a
-box's corners (r = 0), a sphere's centre, a capsule's two sphere centres. Its distance to the
-half-space n·x ≥ h is exact: n·(p + A x̄) − h − r (a box touches a plane first at a corner).
+box's corners (r = 0), a sphere's centre, a capsule's two sphere centres, a mesh's vertices
+(``mesh_points``). Its distance to the half-space n·x ≥ h is n·(p + A x̄) − h − r, exact for
+these (a box or a mesh touches a plane first at a corner). A cylinder touches as its two rims,
+``CYLINDER_RIM_POINTS`` points each: exact standing on an end face or tipped onto a rim, and
+up to r (1 − cos(π/16)) = 1.9 % of its radius low between two points lying on its side.
 """
 
 import warnings
@@ -13,13 +16,14 @@ import numpy as np
 
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
+from affine_joint_sim.physics.mesh_points import mesh_points
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['SUPPORTED', 'combined_friction', 'contact_arrays', 'world_distances']
+__all__ = ['CYLINDER_RIM_POINTS', 'combined_friction', 'contact_arrays', 'world_distances']
 
-SUPPORTED = ('box', 'sphere', 'capsule')     # collision kinds with contact points so far
+CYLINDER_RIM_POINTS = 16
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)
                      for sz in (-1.0, 1.0)])
 
@@ -36,20 +40,25 @@ def _shape_collision(shape) -> Collision:
 
 def _points(geometry: Collision, where: str) -> list[tuple[np.ndarray, float]]:
     """(x̄, r) of one geometry's contact points in the body frame."""
-    if geometry.kind not in SUPPORTED:
-        raise SceneError(f'{where}: {geometry.kind} collision geometry is not supported yet '
-                         f'(supported: {", ".join(SUPPORTED)})')
     rotation = rpy_matrix(*geometry.origin.rpy)
     origin = np.array(geometry.origin.xyz, dtype=np.float64)
+    radius = 0.0
     if geometry.kind == 'box':
         local = [0.5 * np.array(geometry.box) * corner for corner in _CORNERS]
-        radius = 0.0
     elif geometry.kind == 'sphere':
         local, radius = [np.zeros(3)], geometry.sphere.radius
-    else:
+    elif geometry.kind == 'capsule':
         half = 0.5 * geometry.capsule.length
         local, radius = [np.array([0.0, 0.0, -half]), np.array([0.0, 0.0, half])], \
             geometry.capsule.radius
+    elif geometry.kind == 'cylinder':
+        r, half = geometry.cylinder.radius, 0.5 * geometry.cylinder.length
+        turns = [2.0 * np.pi * k / CYLINDER_RIM_POINTS for k in range(CYLINDER_RIM_POINTS)]
+        local = [np.array([r * pm.cos(a), r * pm.sin(a), z]) for z in (-half, half)
+                 for a in turns]
+    else:
+        mesh = geometry.mesh
+        local = list(mesh_points(mesh.path or mesh.uri, mesh.scale, where))
     return [(origin + pm.matmul(rotation, x), float(radius)) for x in local]
 
 
@@ -112,8 +121,8 @@ def contact_arrays(scene, q0: np.ndarray) -> dict:
         geometries = ([_shape_collision(body.shape)] if body.collision == 'shape'
                       else body.collision)
         for k, geometry in enumerate(geometries):
-            where = (f'bodies[{b}].collision' if body.collision == 'shape'
-                     else f'bodies[{b}].collision[{k}]')
+            where = f'body {body.name!r} (bodies[{b}].collision' + (
+                ')' if body.collision == 'shape' else f'[{k}])')
             for rest, radius in _points(geometry, where):
                 bodies.append(b)
                 rests.append(rest)

@@ -29,17 +29,22 @@ def _start(*args) -> subprocess.Popen:
                             preexec_fn=_ignore_sigint)
 
 
-def _check_targets(scene: str, targets: dict[str, float]) -> None:
-    """Raise ValueError unless every target names a moving joint of the scene."""
+def _targets(scene: str, targets: dict[str, float]) -> dict[str, float]:
+    """``targets``, checked: ValueError unless each names a moving joint of the scene. None
+    given: shoulder = 1 rad on the pendulum (the ``make run`` demo), else every moving joint's
+    initial position (the controller holds the start pose: a robot standing on the ground)."""
     from affine_joint_sim.resources import scene_path
     from affine_joint_sim.scene import Scene
 
     loaded = Scene.load(scene_path(scene))
-    moving = [j.name for j in loaded.joints if j.type != 'fixed']
+    moving = {j.name: j.initial_position for j in loaded.joints if j.type != 'fixed'}
+    if not targets:
+        return {'shoulder': 1.0} if scene == 'pendulum' else moving
     wrong = [joint for joint in targets if joint not in moving]
     if wrong:
         raise ValueError(f'--target {", ".join(wrong)}: not a moving joint of scene '
                          f'{loaded.name!r} (joints: {", ".join(moving) or "none"})')
+    return targets
 
 
 def _stop(process: subprocess.Popen) -> str:
@@ -65,7 +70,7 @@ def run_demo(scene: str, targets: dict[str, float], duration: float, mode: str,
     SIGINT/SIGTERM (Ctrl-C) stop both children, whose reports are still printed; neither is
     left running. Returns the node's exit status (2: a target that is not a joint).
     """
-    _check_targets(scene, targets)
+    targets = _targets(scene, targets)
     target_args = [a for joint, angle in targets.items() for a in ('--target', f'{joint}={angle}')]
     node_args = ['run', '--scene', scene, '--mode', mode, '--duration', duration]
     if record is not None:

@@ -14,6 +14,9 @@ What becomes what:
   ``floating`` → the child is a free body; ``planar`` → error; ``mimic`` and friction are not
   modelled (a warning each).
 - Visuals (``urdf.visuals``) keep their pose on the body, geometry, colour and mesh URIs.
+- With ``contact`` or ``ground`` given, each link's ``<collision>`` elements become its body's
+  collision geometry at their pose in the body frame (meshes found as visuals are; one that
+  is not found is an error). ``base`` places the root link in the world.
 - ``initial_positions`` place the bodies by forward kinematics; every joint reports its URDF
   coordinate (``initial_position``). The joint's axis points x0, x1 lie ``ANCHOR_HALF_LENGTH``
   either side of the joint origin along its axis.
@@ -27,13 +30,16 @@ import numpy as np
 from pydantic import Field, ValidationError
 
 from affine_joint_sim import portable_math as pm
+from affine_joint_sim.contact_schema import Contact, Ground, Origin
 from affine_joint_sim.physics.mass import inertia_mass_properties
-from affine_joint_sim.rotations import axis_rotation, quaternion_from_matrix
+from affine_joint_sim.rotations import (axis_rotation, pose_matrix, quaternion_from_matrix,
+                                        rpy_from_matrix)
 from affine_joint_sim.scene import (Number, SceneError, SceneName, SceneSettings,
                                     validation_report)
 from affine_joint_sim.sim_warnings import SimulationWarning
 from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
                                            principal_frame)
+from affine_joint_sim.urdf.packages import resolve_uri
 from affine_joint_sim.urdf.read import read_urdf
 from affine_joint_sim.urdf.visuals import link_visuals
 
@@ -59,6 +65,9 @@ class UrdfOptions(SceneSettings):
     min_mass: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
     package_paths: dict[str, str] = {}
     joints: dict[str, dict] = {}
+    base: Origin = Origin()             # the root link's pose in the world
+    contact: Contact | None = None      # as a scene's; with ground: <collision> is used
+    ground: Ground | None = None
 
 
 def urdf_scene_data(path, overrides: dict, source: str) -> tuple[dict, str]:
@@ -69,10 +78,10 @@ def urdf_scene_data(path, overrides: dict, source: str) -> tuple[dict, str]:
         options = UrdfOptions.model_validate(overrides)
     except ValidationError as exc:
         raise SceneError(validation_report(source, exc, UrdfOptions)) from None
-    text, robot, notes = read_urdf(path)
+    text, robot, collisions, notes = read_urdf(path)
     for note in notes:
         _warn(note)
-    return _Converter(robot, options, path).scene_dict(), text
+    return _Converter(robot, options, path, collisions).scene_dict(), text
 
 
 def _warn(message: str) -> None:
@@ -82,8 +91,9 @@ def _warn(message: str) -> None:
 class _Converter:
     """One URDF robot turned into a scene dict (one use)."""
 
-    def __init__(self, robot, options: UrdfOptions, path):
+    def __init__(self, robot, options: UrdfOptions, path, collisions: list):
         self.robot, self.options, self.path = robot, options, path
+        self.collisions = collisions
         self._starts: dict[str, float] = {}       # joint name -> coordinate at t = 0
         self._implicit_world()
         self.links = {link.name: link for link in robot.links}
@@ -207,13 +217,13 @@ class _Converter:
         return bounds if all(math.isfinite(b) for b in bounds) else None
 
     def _forward_kinematics(self) -> dict:
-        """World pose (4×4) of every link at the initial joint positions; root at the origin."""
+        """World pose (4×4) of every link at the initial joint positions; root at ``base``."""
         movable = [j.name for j in self.robot.joints if j.type in _MOVING]
         unknown = sorted(set(self.options.initial_positions) - set(movable))
         if unknown:
             self._fail(f'initial_positions: {", ".join(map(repr, unknown))} is not a revolute, '
                        f'continuous or prismatic joint (valid: {", ".join(movable)})')
-        poses = {self.root: np.eye(4)}
+        poses = {self.root: pose_matrix(self.options.base.xyz, self.options.base.rpy)}
         for link in self.order[1:]:
             joint = self.joint_of[link]
             poses[link] = pm.matmul(pm.matmul(poses[joint.parent], _origin(joint)),
@@ -391,20 +401,45 @@ class _Converter:
             body, body_frames = self._body(name, links, fixed, moving_mass)
             bodies.append(body)
             frames += body_frames
-        if not self.options.fixed_base and any(self.options.gravity):
-            _warn(f'{self.path}: the robot floats (fixed_base: false) and nothing holds it: '
-                  'there is no ground or contact yet, so under gravity it falls without end '
-                  '(use fixed_base: true to weld its root link to the world)')
+        if not self.options.fixed_base and any(self.options.gravity) \
+                and self.options.ground is None:
+            _warn(f'{self.path}: the robot floats (fixed_base: false) and there is no ground: '
+                  'under gravity it falls without end (give ground, or fixed_base: true to '
+                  'weld its root link to the world)')
+        if self.options.contact is not None or self.options.ground is not None:
+            self._add_collisions(bodies)
         joints = [self._joint(j) for j in self.robot.joints if not self._welded(j)]
         joints = self._overridden([j for j in joints if j is not None])
         options = self.options
         visuals = link_visuals(self.robot, self.local, self.body_of, options.package_paths,
                                self.path.parent, {b['name']: _size(b) for b in bodies},
                                lambda message: _warn(f'{self.path}: {message}'))
-        settings = options.model_dump(include=set(SceneSettings.model_fields))
+        settings = options.model_dump(include={*SceneSettings.model_fields, 'contact',
+                                               'ground'}, exclude_none=True)
         settings['name'] = options.name or self.robot.name or self.path.stem
         return {**settings, 'bodies': bodies, 'joints': joints, 'frames': frames,
                 'visuals': visuals}
+
+    def _add_collisions(self, bodies: list[dict]) -> None:
+        """Each link's <collision> elements as its body's ``collision`` list, posed in the
+        body frame; SceneError for one that cannot be used (file, line and link named)."""
+        by_name = {body['name']: body for body in bodies}
+        for item in self.collisions:
+            where = f'{self.path}:{item.line}: <collision> of link {item.link!r}'
+            if item.problem is not None:
+                raise SceneError(f'{where}: {item.problem}')
+            geometry = dict(item.geometry)
+            if 'mesh' in geometry:
+                mesh = dict(geometry['mesh'])
+                found = resolve_uri(mesh['uri'], self.options.package_paths, self.path.parent)
+                if found is None:
+                    raise SceneError(f'{where}: mesh {mesh["uri"]!r} not found (package_paths, '
+                                     'ROS_PACKAGE_PATH, AMENT_PREFIX_PATH searched): contact '
+                                     'needs it')
+                geometry['mesh'] = {**mesh, 'path': str(found.resolve())}
+            pose = pm.matmul(self.local[item.link], item.origin)
+            geometry['origin'] = {'xyz': _list(pose[:3, 3]), 'rpy': rpy_from_matrix(pose[:3, :3])}
+            by_name[self.body_of[item.link]].setdefault('collision', []).append(geometry)
 
     def _overridden(self, joints: list[dict]) -> list[dict]:
         """Apply the ``joints: {name: {key: value}}`` overrides."""

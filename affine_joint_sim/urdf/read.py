@@ -2,9 +2,10 @@
 
 yourdfpy parses the elements but reports a missing attribute as a bare ``KeyError`` and
 refuses a file for geometry it does not know (``<capsule>``); the checks here come first so
-that a user reads which element on which line is wrong, and the geometry the simulator never
-uses cannot stop a robot from loading: ``<collision>`` elements are dropped, and a visual whose
-geometry yourdfpy cannot read is dropped with a note. The poses the simulation uses (joint and
+that a user reads which element on which line is wrong, and geometry cannot stop a robot from
+loading: ``<collision>`` elements are read here (``urdf.collisions``, checked only when the
+scene uses contact) and dropped before yourdfpy parses, and a visual whose geometry yourdfpy
+cannot read is dropped with a note. The poses the simulation uses (joint and
 inertial ``<origin>``) are computed again with ``rotations.pose_matrix``: yourdfpy's come from
 the C library's sin and cos and BLAS, which round differently on other machines
 (docs/physics.md#reproducibility).
@@ -19,6 +20,7 @@ from lxml import etree
 
 from affine_joint_sim.rotations import pose_matrix
 from affine_joint_sim.scene import SceneError
+from affine_joint_sim.urdf.collisions import read_collisions
 
 __all__ = ['read_urdf', 'JOINT_TYPES']
 
@@ -29,8 +31,8 @@ _GEOMETRIES = ('box', 'cylinder', 'sphere', 'mesh')      # what yourdfpy reads
 
 
 def read_urdf(path):
-    """The URDF text, its yourdfpy ``Robot`` and notes about visuals that were dropped;
-    SceneError naming the file (and line)."""
+    """The URDF text, its yourdfpy ``Robot``, its collisions (``LinkCollision`` list) and
+    notes about visuals that were dropped; SceneError naming the file (and line)."""
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -46,10 +48,11 @@ def read_urdf(path):
         text = data.decode(encoding)
     except (UnicodeDecodeError, LookupError) as exc:
         raise SceneError(f'{path}: not {encoding} text as it declares ({exc})') from None
+    collisions = read_collisions(root)
     notes = _drop_unused_geometry(root)
     robot = _parse(path, etree.tostring(root))
     _portable_origins(root, robot)
-    return text, robot, [f'{path}: {note}' for note in notes]
+    return text, robot, collisions, [f'{path}: {note}' for note in notes]
 
 
 def _portable_origins(root, robot) -> None:
@@ -73,7 +76,8 @@ def _pose(origin) -> np.ndarray:
 
 
 def _drop_unused_geometry(root) -> list[str]:
-    """Remove ``<collision>`` elements and visuals yourdfpy cannot read; notes on the latter."""
+    """Remove ``<collision>`` elements (read already) and visuals yourdfpy cannot read; notes
+    on the latter."""
     notes = []
     for link in root.iterchildren('link'):
         for collision in link.findall('collision'):

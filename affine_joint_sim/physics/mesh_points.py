@@ -1,0 +1,76 @@
+"""A collision mesh's contact points: its vertices, at most ``MAX_MESH_POINTS`` of them
+(README.md#contact).
+
+Against a half-space a mesh touches first at a vertex, so its vertices are its contact points.
+A finer mesh than contact needs (a visual exported as collision geometry) is reduced: first its
+extreme vertices along the 26 directions of a cube's faces, edges and corners (the vertex a
+half-space with that normal touches first; a box's corners, a sphere's poles), then farthest-
+point sampling (each next vertex the one farthest from every vertex kept so far), so the rest
+are spread evenly. The warning names the body and says how far a dropped vertex may be from a
+kept one. Exact IEEE operations only (no BLAS sums), so the points are the same bits on every
+machine.
+"""
+
+import warnings
+
+import numpy as np
+
+from affine_joint_sim.scene import SceneError
+from affine_joint_sim.sim_warnings import SimulationWarning
+
+__all__ = ['MAX_MESH_POINTS', 'mesh_points', 'reduce_points']
+
+MAX_MESH_POINTS = 64
+_DIRECTIONS = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
+               if (i, j, k) != (0, 0, 0)]
+
+
+def mesh_points(path: str, scale, where: str) -> np.ndarray:
+    """The contact points (n, 3) [m, in the geometry's frame] of the mesh file at ``path``
+    scaled per axis by ``scale``; SceneError naming ``where`` if it cannot be read."""
+    import trimesh
+
+    try:
+        mesh = trimesh.load(path, force='mesh', process=False)
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    except Exception as exc:     # trimesh raises many kinds for a bad or unknown file
+        raise SceneError(f'{where}: cannot read collision mesh {path} '
+                         f'({type(exc).__name__}: {exc})') from None
+    if vertices.ndim != 2 or len(vertices) == 0 or not np.isfinite(vertices).all():
+        raise SceneError(f'{where}: collision mesh {path} has no finite vertices')
+    points = np.unique(vertices * np.asarray(scale, dtype=np.float64), axis=0)
+    if len(points) <= MAX_MESH_POINTS:
+        return points
+    kept, gap = reduce_points(points, MAX_MESH_POINTS)
+    warnings.warn(f'{where}: collision mesh {path} has {len(points)} distinct vertices; '
+                  f'contact uses {MAX_MESH_POINTS} of them (its extremes along 26 directions, '
+                  f'then farthest-point sampling; every vertex dropped is within {gap:.3g} m of '
+                  'one kept)',
+                  SimulationWarning, stacklevel=4)
+    return kept
+
+
+def reduce_points(points: np.ndarray, count: int) -> tuple[np.ndarray, float]:
+    """``count`` (≥ 26) of ``points`` (n, 3): the extremes along the 26 directions, then by
+    farthest-point sampling (ties: the lowest index); and the largest distance [m] from a
+    point to the nearest one kept."""
+    chosen = []
+    for i, j, k in _DIRECTIONS:
+        height = points[:, 0] * i + points[:, 1] * j + points[:, 2] * k
+        pick = int(np.argmax(height))
+        if pick not in chosen:
+            chosen.append(pick)
+    nearest = _squared(points, points[chosen[0]])
+    for pick in chosen[1:]:
+        nearest = np.minimum(nearest, _squared(points, points[pick]))
+    while len(chosen) < count:
+        pick = int(np.argmax(nearest))
+        chosen.append(pick)
+        nearest = np.minimum(nearest, _squared(points, points[pick]))
+    return points[chosen], float(np.sqrt(nearest.max()))
+
+
+def _squared(points: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """Squared distances of ``points`` to ``point``, summed in a fixed order."""
+    d = points - point
+    return d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
