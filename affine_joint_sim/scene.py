@@ -314,13 +314,14 @@ class Scene(SceneSettings):
         return self._robot_description
 
     @classmethod
-    def load(cls, path) -> 'Scene':
+    def load(cls, path, **overrides) -> 'Scene':
         """A scene file, told by its content whatever its name (``.urdf``, ``.xml``,
         ``.xacro``, none): XML is a URDF, read with default settings; anything else a scene
-        YAML."""
+        YAML. ``overrides`` replace top-level keys of the file (``ground=[{'height': 0.0}]``;
+        for a URDF, or a YAML naming one, the ``urdf:`` entry's keys)."""
         if _looks_like_xml(Path(path)):
-            return cls.from_urdf(path)
-        return cls.from_yaml(path)
+            return cls.from_urdf(path, **overrides)
+        return cls.from_yaml(path, overrides)
 
     @classmethod
     def from_urdf(cls, path, **overrides) -> 'Scene':
@@ -345,8 +346,8 @@ class Scene(SceneSettings):
         return scene
 
     @classmethod
-    def from_yaml(cls, path) -> 'Scene':
-        """Load and validate a scene file."""
+    def from_yaml(cls, path, overrides: dict | None = None) -> 'Scene':
+        """Load and validate a scene file, ``overrides`` replacing its top-level keys."""
         path = Path(path)
         try:
             text = path.read_text(encoding='utf-8')
@@ -355,14 +356,17 @@ class Scene(SceneSettings):
         except UnicodeDecodeError as exc:
             raise SceneError(f'{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); '
                              'a scene is YAML text') from None
-        return cls.from_yaml_text(text, source=str(path), base_dir=path.parent)
+        return cls.from_yaml_text(text, source=str(path), base_dir=path.parent,
+                                  overrides=overrides)
 
     @classmethod
     def from_yaml_text(cls, text: str, source: str = '<yaml>',
-                       solver_defaults: dict | None = None, base_dir=None) -> 'Scene':
+                       solver_defaults: dict | None = None, base_dir=None,
+                       overrides: dict | None = None) -> 'Scene':
         """Validate a scene given as YAML text (e.g. the copy stored in a bag);
-        ``solver_defaults`` fill solver keys the text does not give; a ``urdf:`` path is
-        relative to ``base_dir`` (default: the working directory)."""
+        ``solver_defaults`` fill solver keys the text does not give, ``overrides`` replace
+        top-level keys; a ``urdf:`` path is relative to ``base_dir`` (default: the working
+        directory)."""
         try:
             data = yaml.load(text, Loader=_SceneLoader)
         except yaml.YAMLError as exc:
@@ -371,6 +375,8 @@ class Scene(SceneSettings):
             raise SceneError(f'{source}: YAML nested too deeply to be a scene') from None
         if solver_defaults and isinstance(data, dict) and isinstance(data.get('solver', {}), dict):
             data['solver'] = dict(solver_defaults, **data.get('solver', {}))
+        if overrides and isinstance(data, dict):
+            data.update(overrides)
         if isinstance(data, dict) and 'urdf' in data:
             return cls._from_urdf_entry(data, base_dir, source)
         _find_collision_meshes(data, Path(base_dir or '.'))

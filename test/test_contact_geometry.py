@@ -196,3 +196,21 @@ def test_the_shipped_quadruped_stands_for_3_s_under_the_demo_controllers_pd():
     assert np.abs(sim.body_qdot[0][:3]).max() < 1e-3
     trunk = sim.link_transforms[sim.link_names.index('trunk')]
     assert trunk[2, 2] > 0.999                     # its z axis still points up
+
+
+def test_run_adds_a_ground_under_any_scene_and_a_urdf_robot_touches_it_with_its_collisions():
+    from helpers.cli import cli
+    urdf = ROOT / 'msg_configs' / 'robots' / 'quadruped.urdf'
+    # welded to the world at its trunk, legs straight, its feet hang 0.34 m down: a ground
+    # 0.1 m down cuts them, so the collision geometry is in use
+    done = cli('run', '--scene', urdf, '--ground', -0.1, '--mode', 'fast', '--duration', 0.1)
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert done.stderr.count('error') == 1 and 'Traceback' not in done.stderr
+    assert "_shank' starts 0.24 m inside ground" in done.stderr.splitlines()[-1]
+    # the standing scene with its ground lowered 5 cm: the robot drops onto it
+    done = cli('run', '--scene', 'quadruped', '--ground', -0.05, '--mode', 'fast', '--duration',
+               0.3)
+    assert done.returncode == 0, done.stderr
+    line = next(s for s in done.stdout.splitlines() if s.startswith('contact:'))
+    assert float(line.split('ground ')[1].split(' m')[0]) > 0.0
+    assert 'at most 0 contacts' not in line

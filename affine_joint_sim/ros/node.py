@@ -12,6 +12,7 @@ node does no physics itself: its stepping is a ``SimLoop``, its bag a ``RunRecor
 ``run_node`` is its process (signals, exit status, summary).
 """
 
+import math
 import threading
 import time
 import warnings
@@ -91,7 +92,9 @@ class SimNode(Node):
                          **node_kwargs)
         self.config = self._declare_parameters()
         try:
-            self.scene = Scene.load(scene_path(self.config['scene']))
+            ground = self.config['ground']
+            self.scene = Scene.load(scene_path(self.config['scene']), **(
+                {} if math.isnan(ground) else {'ground': {'height': ground}}))
         except FileNotFoundError as exc:
             raise ConfigError(f"parameter 'scene': {exc}") from None
         try:

@@ -66,6 +66,9 @@ PARAMETERS = {
     'command_timeout': ParameterSpec(0.0, 'simulated seconds [s] after which a silent joint\'s '
                                      'torque falls to 0 (0: hold the last command)',
                                      minimum=0.0, live=True),
+    'ground': ParameterSpec(math.nan, 'add the ground z >= this height [m] to the scene, '
+                            'replacing its own (nan: none added); a URDF robot\'s <collision> '
+                            'elements then touch it'),
     'duration': ParameterSpec(0.0, 'stop after this many simulated seconds [s] (0: run until '
                               'interrupted)', minimum=0.0, live=True),
 }
@@ -86,6 +89,9 @@ def check(name: str, value):
     if name == 'frame_id' and (not value or any(c.isspace() for c in value)):
         raise ConfigError(f'parameter {name!r}: {value!r} is not a frame name (non-empty, no '
                           'whitespace)')
+    if name == 'ground' and math.isinf(value):
+        raise ConfigError(f'parameter {name!r}: {value!r} is not a height (a finite number of '
+                          'metres, or nan for none)')
     if spec.minimum is not None:
         low = spec.minimum
         if not math.isfinite(value) or value < low or (spec.exclusive and value == low):
