@@ -441,23 +441,24 @@ class Scene(SceneSettings):
             problems += self._closed_loops()
         return problems
 
+    def articulations(self) -> tuple[list[int], set]:
+        """(an articulation index per body: bodies joined by joints, directly or through
+        others, share one; the set of directly jointed body index pairs, both orders)."""
+        sets, jointed = _DisjointSets(len(self.bodies)), set()
+        for joint in self.joints:
+            a, b = self.body_index(joint.parent), self.body_index(joint.child)
+            sets.join(a, b)
+            jointed |= {(a, b), (b, a)}
+        return [sets.find(i) for i in range(len(self.bodies))], jointed
+
     def _closed_loops(self) -> list[tuple[str, str]]:
         """Joints must form a forest: report the joints of the first closed loop found."""
-        root = list(range(len(self.bodies)))
-
-        def find(i):
-            while root[i] != i:
-                root[i] = root[root[i]]
-                i = root[i]
-            return i
-
+        sets = _DisjointSets(len(self.bodies))
         for i, joint in enumerate(self.joints):
-            a, b = find(self.body_index(joint.parent)), find(self.body_index(joint.child))
-            if a == b:
+            if not sets.join(self.body_index(joint.parent), self.body_index(joint.child)):
                 loop = self._path_joints(joint.parent, joint.child, upto=i) + [joint.name]
                 return [(f'joints[{i}]', 'joints form a closed loop (' + ', '.join(loop) +
                          '); only trees of joints are supported')]
-            root[a] = b
         return []
 
     def _path_joints(self, start: str, goal: str, upto: int) -> list[str]:
@@ -476,6 +477,26 @@ class Scene(SceneSettings):
                     seen.add(other)
                     stack.append((other, path + [name]))
         return []
+
+
+class _DisjointSets:
+    """Union–find over 0..n−1."""
+
+    def __init__(self, n: int):
+        self._root = list(range(n))
+
+    def find(self, i: int) -> int:
+        root = self._root
+        while root[i] != i:
+            root[i] = root[root[i]]
+            i = root[i]
+        return i
+
+    def join(self, a: int, b: int) -> bool:
+        """Join the sets of a and b; False if they were one already."""
+        a, b = self.find(a), self.find(b)
+        self._root[a] = b
+        return a != b
 
 
 def _find_collision_meshes(data, base_dir: Path) -> None:

@@ -448,9 +448,9 @@ class Stepper:
     @property
     def contact_record(self) -> dict | None:
         """In a scene with contact, ``min_distance``: the smallest distance of a body to the
-        ground at the end of any step since this Stepper was made [m] (over every environment,
-        resets included: +inf before a first step), and ``most_contacts``: the most contact
-        pairs at once; None without contact."""
+        world (ground and fixed bodies' geometry) at the end of any step since this Stepper
+        was made [m] (over every environment, resets included: +inf before a first step), and
+        ``most_contacts``: the most contact pairs at once; None without contact."""
         if not self._host.has_contact:
             return None
         return {'min_distance': float(self._read('nearest_seen').min()),

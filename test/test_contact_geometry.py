@@ -212,5 +212,5 @@ def test_run_adds_a_ground_under_any_scene_and_a_urdf_robot_touches_it_with_its_
                0.3)
     assert done.returncode == 0, done.stderr
     line = next(s for s in done.stdout.splitlines() if s.startswith('contact:'))
-    assert float(line.split('ground ')[1].split(' m')[0]) > 0.0
+    assert float(line.split('world ')[1].split(' m')[0]) > 0.0
     assert 'at most 0 contacts' not in line

@@ -12,7 +12,7 @@ import pytest
 from affine_joint_sim.physics.evaluate import Stages
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper
-from helpers.barrier import resting_distance
+from helpers.barrier import contact_terms, resting_distance
 
 G = 9.81
 SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
@@ -104,27 +104,6 @@ def _near_ground_state(scene, rng):
     return q
 
 
-def _contact_terms(with_contact, without, q, q_tilde, step):
-    """(gradient, Hessian, and their central differences with ``step``) of the contact terms
-    alone at q: the assembly of a scene with contact minus that of the same scene without."""
-    def gradient_at(x):
-        return (with_contact.newton_system(x, q_tilde)[0]
-                - without.newton_system(x, q_tilde)[0])
-
-    def energy_at(x):
-        return with_contact.energy(x, q_tilde) - without.energy(x, q_tilde)
-
-    hessian = (with_contact.newton_system(q, q_tilde)[1]
-               - without.newton_system(q, q_tilde)[1])
-    fd_gradient, fd_hessian = np.zeros(12), np.zeros((12, 12))
-    for i in range(12):
-        e = np.zeros((1, 12))
-        e[0, i] = step
-        fd_gradient[i] = (energy_at(q + e) - energy_at(q - e)) / (2 * step)
-        fd_hessian[:, i] = (gradient_at(q + e) - gradient_at(q - e)) / (2 * step)
-    return gradient_at(q), hessian, fd_gradient, fd_hessian
-
-
 def test_the_barrier_gradient_and_hessian_match_finite_differences():
     rng = np.random.default_rng(3)
     scene = _box_scene()
@@ -132,7 +111,7 @@ def test_the_barrier_gradient_and_hessian_match_finite_differences():
         update={'ground': None, 'contact': None}))
     q = _near_ground_state(scene, rng)
     q_tilde = q + 1e-3 * rng.normal(size=q.shape)
-    gradient, hessian, fd_gradient, fd_hessian = _contact_terms(with_contact, without, q,
+    gradient, hessian, fd_gradient, fd_hessian = contact_terms(with_contact, without, q,
                                                                 q_tilde, step=1e-7)
     assert np.abs(fd_gradient).max() > 0.0
     np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
@@ -257,7 +236,7 @@ def test_the_friction_gradient_and_hessian_match_finite_differences(slip):
     # a lagged normal force on every corner (8 points × 1 plane), as at the step start
     with_contact.scratch.friction_normal.assign(np.full((1, 8), 2.5e-4))
     q_tilde = q.copy()
-    gradient, hessian, fd_gradient, fd_hessian = _contact_terms(with_contact, without, q,
+    gradient, hessian, fd_gradient, fd_hessian = contact_terms(with_contact, without, q,
                                                                 q_tilde, step=1e-8)
     np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
                                atol=1e-6 * np.abs(fd_gradient).max())
@@ -286,7 +265,7 @@ def test_the_command_line_run_reports_contact_and_refuses_a_touching_scene(tmp_p
     done = cli('run', '--scene', tmp_path / 'drop.yaml', '--mode', 'fast', '--duration', 1.0)
     assert done.returncode == 0, done.stderr
     line = next(s for s in done.stdout.splitlines() if s.startswith('contact:'))
-    distance = float(line.split('ground ')[1].split(' m')[0])
+    distance = float(line.split('world ')[1].split(' m')[0])
     assert 0.0 < distance < 0.01 and line.endswith('at most 4 contacts at once')
     (tmp_path / 'touching.yaml').write_text(_box_scene(0.04).to_yaml())
     done = cli('run', '--scene', tmp_path / 'touching.yaml', '--mode', 'fast')

@@ -37,11 +37,12 @@ def test_the_host_model_carries_exactly_the_model_fields_with_their_shapes():
     scene = every_joint_type()
     host = build_model(scene)
     sizes = dict(SIZES, body=len(scene.bodies), joint=len(scene.joints),
-                 free=int(np.sum(host.body_fixed == 0)), point=0, plane=0,
+                 free=int(np.sum(host.body_fixed == 0)), point=0, plane=0, shape=0,
                  pair=0)                                        # no contact
     for f in fields_of('model'):
         value = np.asarray(getattr(host, f.name))
-        trailing = {'vec3': (3,), 'vec12': (12,), 'mat12': (12, 12)}.get(f.dtype, ())
+        trailing = {'vec3': (3,), 'mat33': (3, 3), 'vec12': (12,),
+                    'mat12': (12, 12)}.get(f.dtype, ())
         if f.shape == ():
             assert value.shape in ((), (3,)), f.name
         else:

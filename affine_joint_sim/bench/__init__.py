@@ -14,7 +14,7 @@ from pathlib import Path
 
 __all__ = ['SECTIONS', 'add_arguments', 'main']
 
-SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop', 'record', 'robots')
+SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop', 'record', 'robots', 'contact')
 
 
 def _section(name: str):

@@ -148,7 +148,7 @@ def build(t) -> SimpleNamespace:
                     halvings: int, converged: int, failures: int, aliased: int, dropped: int,
                     finite: int, rejected: int, residual: scalar, gap: scalar, strain: scalar):
         """The step's statistics, addressed by the names of physics.fields (with contact: the
-        smallest distance to a half-space and the pairs closer than d̂ at the end), and the
+        smallest distance to a static thing and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
         step's Newton status does not count: its state was not kept)."""
         state.stats_int[env, s_iterations] = iterations

@@ -1,14 +1,19 @@
-"""Contact of free bodies with static half-spaces: the IPC barrier on each contact point's
-distance, lagged smoothed Coulomb friction, their gradients and Hessians mapped into the
-body's block, the step bound along a Newton direction, and the statistics
-(docs/physics.md#contact).
+"""Contact of free bodies with static things: half-spaces and fixed bodies' shapes (boxes,
+spheres, capsules, cylinders). The IPC barrier on each contact point's distance, lagged
+smoothed Coulomb friction, their gradients and Hessians mapped into the body's block, the step
+bound along a Newton direction, and the statistics (docs/physics.md#contact).
 
-The distance of point i to half-space g is d = n·(p + A x̄) − h − r, linear in the body's q
-with gradient w = J(x̄)ᵀ n. The barrier (libuipc's form on D = d², D̂ = d̂²)
-b(D) = −κ (D − D̂)² ln(D / D̂) for 0 < d < d̂ (zero beyond) enters the incremental potential
-as dt² b; as a function of d it is convex on (0, d̂), so its Hessian dt² b''(d) w wᵀ is PSD
-(clamped at 0 against rounding) and adds to one diagonal block only: the tree solve stays
-exact. Every loop is skipped in a scene without contact (model.has_contact = 0).
+Static thing g is half-space g for g < planes, else shape g − planes. The distance of point i
+to half-space g is d = n·(p + A x̄) − h − r, linear in the body's q with gradient
+w = J(x̄)ᵀ n; to a shape it is the exact distance of x = p + A x̄ to the convex shape, less r,
+with gradient J(x̄)ᵀ n for n its unit outward direction at x. The barrier (libuipc's form on
+D = d², D̂ = d̂²) b(D) = −κ (D − D̂)² ln(D / D̂) for 0 < d < d̂ (zero beyond) enters the
+incremental potential as dt² b; as a function of d it is convex on (0, d̂), so dt² b''(d) w wᵀ
+is PSD (clamped at 0 against rounding): the whole Hessian against a half-space; against a
+shape its curvature term b'(d) ∇²d (negative semidefinite: b' < 0, and the distance to a convex
+set is convex) is left out, the Gauss–Newton part of IPC's PSD projection. Either adds to one
+diagonal block only: the tree solve stays exact. Every loop is skipped in a scene without
+contact (model.has_contact = 0), and a pair that may not touch (pair_on 0) everywhere.
 """
 
 from types import SimpleNamespace
@@ -22,7 +27,7 @@ STEP_SLACK = 0.1     # η: a step along dq keeps this fraction of every shrinkin
 
 def build(t) -> SimpleNamespace:
     """Warp functions of contact for the types namespace ``t``."""
-    vec12, scalar = t.vec12, t.scalar
+    vec3, vec12, scalar = t.vec3, t.vec12, t.scalar
     zero, one, two, three, four = t.zero, t.one, t.two, t.three, t.four
     Model, Scratch = t.structs.Model, t.structs.Scratch
     world_point, jacobian_transpose, log = t.world_point, t.jacobian_transpose, t.log
@@ -30,10 +35,93 @@ def build(t) -> SimpleNamespace:
     infinity = scalar(float('inf'))
 
     @wp.func
+    def sign_of(x: scalar):
+        """+1 for x ≥ 0, else −1."""
+        out = one
+        if x < zero:
+            out = -one
+        return out
+
+    @wp.func
+    def shape_separation(model: Model, x: vec3, s: int):
+        """(signed distance [m] of the world point x to shape s's surface, negative inside;
+        its unit outward direction n, the distance's gradient in x)."""
+        rot = model.shape_rotation[s]
+        size = model.shape_size[s]
+        kind = model.shape_kind[s]
+        local = wp.transpose(rot) @ (x - model.shape_center[s])
+        d = zero
+        n = vec3(zero, zero, one)
+        if kind == 1:               # box: the clamped excess over its half sides
+            e = vec3(wp.max(wp.abs(local[0]) - size[0], zero),
+                     wp.max(wp.abs(local[1]) - size[1], zero),
+                     wp.max(wp.abs(local[2]) - size[2], zero))
+            d = wp.length(e)
+            if d > zero:
+                n = vec3(sign_of(local[0]) * e[0], sign_of(local[1]) * e[1],
+                         sign_of(local[2]) * e[2]) / d
+            else:                   # inside: the nearest face
+                d = wp.abs(local[0]) - size[0]
+                n = vec3(sign_of(local[0]), zero, zero)
+                if wp.abs(local[1]) - size[1] > d:
+                    d = wp.abs(local[1]) - size[1]
+                    n = vec3(zero, sign_of(local[1]), zero)
+                if wp.abs(local[2]) - size[2] > d:
+                    d = wp.abs(local[2]) - size[2]
+                    n = vec3(zero, zero, sign_of(local[2]))
+        elif kind == 4:             # cylinder along z: radial and axial excess
+            radial = wp.sqrt(local[0] * local[0] + local[1] * local[1])
+            out = vec3(one, zero, zero)
+            if radial > zero:
+                out = vec3(local[0] / radial, local[1] / radial, zero)
+            dr = radial - size[0]
+            dz = wp.abs(local[2]) - size[1]
+            up = vec3(zero, zero, sign_of(local[2]))
+            if dr > zero and dz > zero:
+                d = wp.sqrt(dr * dr + dz * dz)
+                n = (dr * out + dz * up) / d
+            elif dr > dz:
+                d = dr
+                n = out
+            else:
+                d = dz
+                n = up
+        else:                       # sphere (2), capsule (3): from the nearest axis point
+            nearest = vec3(zero, zero, zero)
+            if kind == 3:
+                nearest = vec3(zero, zero, wp.clamp(local[2], -size[1], size[1]))
+            gap = local - nearest
+            length = wp.length(gap)
+            if length > zero:
+                n = gap / length
+            d = length - size[0]
+        return d, rot @ n
+
+    @wp.func
     def distance(model: Model, q: vec12, i: int, g: int):
-        """Distance [m] of contact point i, on a body at state q, to half-space g."""
+        """(distance [m] of contact point i, on a body at state q, to static thing g; the unit
+        direction n in which it grows fastest)."""
         x = world_point(q, model.point_rest[i])
-        return wp.dot(model.plane_normal[g], x) - model.plane_offset[g] - model.point_radius[i]
+        planes = model.plane_offset.shape[0]
+        if g < planes:
+            return (wp.dot(model.plane_normal[g], x) - model.plane_offset[g]
+                    - model.point_radius[i]), model.plane_normal[g]
+        d, n = shape_separation(model, x, g - planes)
+        return d - model.point_radius[i], n
+
+    @wp.func
+    def statics(model: Model):
+        """Static things: half-spaces, then shapes."""
+        return model.plane_offset.shape[0] + model.shape_kind.shape[0]
+
+    @wp.func
+    def tangent_of(n: vec3):
+        """t₁ of a friction basis for normal n: x̂ × n normalized (ẑ × n where n is within
+        about 26° of x̂), as contact_model._tangent gives a half-space."""
+        axis = vec3(one, zero, zero)
+        if wp.abs(n[0]) > scalar(0.9):
+            axis = vec3(zero, zero, one)
+        return wp.normalize(wp.cross(axis, n))
 
     @wp.func
     def barrier(model: Model, d: scalar):
@@ -51,27 +139,32 @@ def build(t) -> SimpleNamespace:
     def lag_friction(model: Model, scratch: Scratch, env: int):
         """The normal force dt² λ = −dt² db/dd of every pair closer than d̂ at q_n into
         scratch.friction_normal (0 for the others): friction's weight for the step."""
-        planes = model.plane_offset.shape[0]
+        things = statics(model)
         for i in range(model.point_body.shape[0]):
             qb = scratch.q_n[env, model.point_body[i]]
-            for g in range(planes):
-                d = distance(model, qb, i, g)
+            for g in range(things):
                 force = zero
-                if d > zero and d < model.contact_d_hat:
-                    b, b1, b2 = barrier(model, d)
-                    force = -model.dt * model.dt * b1
-                scratch.friction_normal[env, i * planes + g] = force
+                if model.pair_on[i * things + g] != 0:
+                    d, n = distance(model, qb, i, g)
+                    if d > zero and d < model.contact_d_hat:
+                        b, b1, b2 = barrier(model, d)
+                        force = -model.dt * model.dt * b1
+                scratch.friction_normal[env, i * things + g] = force
 
     @wp.func
     def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, i: int,
              g: int):
-        """(u₁, u₂, w₁, w₂): the tangential displacement [m] of point i along half-space g's
-        basis (t₁, t₂ = n × t₁) since the start of the step, and its gradients J(x̄)ᵀ t."""
+        """(u₁, u₂, w₁, w₂): the tangential displacement [m] of point i since the start of the
+        step along the friction basis (t₁, t₂ = n × t₁) of static thing g, lagged at q_n (a
+        half-space's own; a shape's from its normal at q_n), and its gradients J(x̄)ᵀ t."""
         b = model.point_body[i]
         rest = model.point_rest[i]
         moved = world_point(q[env, b], rest) - world_point(scratch.q_n[env, b], rest)
-        t1 = model.plane_tangent[g]
-        t2 = wp.cross(model.plane_normal[g], t1)
+        d, n = distance(model, scratch.q_n[env, b], i, g)
+        t1 = tangent_of(n)
+        if g < model.plane_offset.shape[0]:
+            t1 = model.plane_tangent[g]
+        t2 = wp.cross(n, t1)
         return (wp.dot(t1, moved), wp.dot(t2, moved), jacobian_transpose(rest, t1),
                 jacobian_transpose(rest, t2))
 
@@ -94,11 +187,11 @@ def build(t) -> SimpleNamespace:
                         env: int):
         """Σ μ dt²λ f0(|u|) over the pairs with a lagged normal force [J·s²]."""
         energy = zero
-        planes = model.plane_offset.shape[0]
+        things = statics(model)
         eps = model.contact_eps_velocity * model.dt
         for i in range(model.point_body.shape[0]):
-            for g in range(planes):
-                pair = i * planes + g
+            for g in range(things):
+                pair = i * things + g
                 force = scratch.friction_normal[env, pair]
                 if force > zero:
                     u1, u2, w1, w2 = slip(model, q, scratch, env, i, g)
@@ -112,13 +205,13 @@ def build(t) -> SimpleNamespace:
         """Friction's gradient into scratch.rhs and, with ``hessian``, its PSD Hessian
         (IPC's closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂]) into the
         diagonal blocks. Returns the number of pairs with friction."""
-        planes = model.plane_offset.shape[0]
+        things = statics(model)
         eps = model.contact_eps_velocity * model.dt
         count = int(0)
         for i in range(model.point_body.shape[0]):
             b = model.point_body[i]
-            for g in range(planes):
-                pair = i * planes + g
+            for g in range(things):
+                pair = i * things + g
                 weight = model.pair_friction[pair] * scratch.friction_normal[env, pair]
                 if weight > zero:
                     count += 1
@@ -146,18 +239,20 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def contact_energy(model: Model, q: wp.array2d(dtype=vec12), env: int):
-        """dt² Σ b over the (point, half-space) pairs closer than d̂ [J·s²]; +∞ if a point is
-        at or beyond a half-space's boundary."""
+        """dt² Σ b over the pairs closer than d̂ [J·s²]; +∞ if a point is at or beyond a
+        static thing's boundary."""
         energy = zero
+        things = statics(model)
         for i in range(model.point_body.shape[0]):
             qb = q[env, model.point_body[i]]
-            for g in range(model.plane_offset.shape[0]):
-                d = distance(model, qb, i, g)
-                if d <= zero:
-                    energy = infinity
-                elif d < model.contact_d_hat:
-                    b, b1, b2 = barrier(model, d)
-                    energy += model.dt * model.dt * b
+            for g in range(things):
+                if model.pair_on[i * things + g] != 0:
+                    d, n = distance(model, qb, i, g)
+                    if d <= zero:
+                        energy = infinity
+                    elif d < model.contact_d_hat:
+                        b, b1, b2 = barrier(model, d)
+                        energy += model.dt * model.dt * b
         return energy
 
     @wp.func
@@ -167,47 +262,55 @@ def build(t) -> SimpleNamespace:
         diagonal blocks. Returns the number of active pairs."""
         active = int(0)
         dt2 = model.dt * model.dt
+        things = statics(model)
         for i in range(model.point_body.shape[0]):
             b = model.point_body[i]
-            for g in range(model.plane_offset.shape[0]):
-                d = distance(model, q[env, b], i, g)
-                if d > zero and d < model.contact_d_hat:
-                    active += 1
-                    e, b1, b2 = barrier(model, d)
-                    w = jacobian_transpose(model.point_rest[i], model.plane_normal[g])
-                    scratch.rhs[env, b] -= dt2 * b1 * w
-                    if hessian != 0:
-                        scratch.hessian[env, b] += wp.outer(dt2 * wp.max(b2, zero) * w, w)
+            for g in range(things):
+                if model.pair_on[i * things + g] != 0:
+                    d, n = distance(model, q[env, b], i, g)
+                    if d > zero and d < model.contact_d_hat:
+                        active += 1
+                        e, b1, b2 = barrier(model, d)
+                        w = jacobian_transpose(model.point_rest[i], n)
+                        scratch.rhs[env, b] -= dt2 * b1 * w
+                        if hessian != 0:
+                            scratch.hessian[env, b] += wp.outer(dt2 * wp.max(b2, zero) * w, w)
         return active
 
     @wp.func
     def step_bound(model: Model, scratch: Scratch, env: int):
-        """The largest α ≤ 1 at which every point keeps at least (1 − η) of its gap's share
-        along q_start + α dq: exact, since distances are linear in α."""
+        """The largest α ≤ 1 at which every point keeps at least η of its gap along
+        q_start + α dq: each point moves on a straight line, its distance to a half-space is
+        linear in α and to a convex shape convex, so the tangent at α = 0 is a lower bound
+        (exact for half-spaces, conservative for shapes)."""
         alpha = one
+        things = statics(model)
         for i in range(model.point_body.shape[0]):
             b = model.point_body[i]
-            for g in range(model.plane_offset.shape[0]):
-                d = distance(model, scratch.q_start[env, b], i, g)
-                rate = wp.dot(jacobian_transpose(model.point_rest[i], model.plane_normal[g]),
-                              scratch.dq[env, b])
-                if rate < zero:
-                    alpha = wp.min(alpha, keep * d / (-rate))
+            for g in range(things):
+                if model.pair_on[i * things + g] != 0:
+                    d, n = distance(model, scratch.q_start[env, b], i, g)
+                    rate = wp.dot(jacobian_transpose(model.point_rest[i], n),
+                                  scratch.dq[env, b])
+                    if rate < zero:
+                        alpha = wp.min(alpha, keep * d / (-rate))
         return alpha
 
     @wp.func
     def touching(model: Model, q: wp.array2d(dtype=vec12), env: int):
-        """(smallest distance [m] of a point to a half-space, +∞ without any; pairs closer
-        than d̂) at q."""
+        """(smallest distance [m] of a point to a static thing it may touch, +∞ without any;
+        pairs closer than d̂) at q."""
         nearest = infinity
         active = int(0)
+        things = statics(model)
         for i in range(model.point_body.shape[0]):
             qb = q[env, model.point_body[i]]
-            for g in range(model.plane_offset.shape[0]):
-                d = distance(model, qb, i, g)
-                nearest = wp.min(nearest, d)
-                if d < model.contact_d_hat:
-                    active += 1
+            for g in range(things):
+                if model.pair_on[i * things + g] != 0:
+                    d, n = distance(model, qb, i, g)
+                    nearest = wp.min(nearest, d)
+                    if d < model.contact_d_hat:
+                        active += 1
         return nearest, active
 
     return SimpleNamespace(contact_distance=distance, barrier=barrier,

@@ -1,6 +1,7 @@
-"""Host-side contact model: a scene's collision geometry as contact points and its ground as
-half-spaces (the model fields of physics.fields under ``has_contact``), and the refusal of a
-scene whose initial state already touches (docs/physics.md#contact).
+"""Host-side contact model: a scene's collision geometry as contact points, its ground as
+half-spaces and its fixed bodies' geometry as static shapes (``static_shapes``; the model
+fields of physics.fields under ``has_contact``), and the refusal of a scene whose initial state
+already touches (docs/physics.md#contact).
 
 A contact point is a rest point x̄ of a free body (COM-centred body frame) with a radius r: a
 box's corners (r = 0), a sphere's centre, a capsule's two sphere centres, a mesh's vertices
@@ -17,6 +18,7 @@ import numpy as np
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
 from affine_joint_sim.physics.mesh_points import mesh_points
+from affine_joint_sim.physics.static_shapes import shape_distance, static_shapes
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
@@ -92,35 +94,40 @@ def combined_friction(mu_a: float, mu_b: float) -> float:
     return 0.0 if mu_a + mu_b == 0.0 else 2.0 * mu_a * mu_b / (mu_a + mu_b)
 
 
-def world_distances(q, point_body, point_rest, point_radius, normals, offsets) -> np.ndarray:
-    """Distances [m], shape (points, planes), of the contact points at states q (n_bodies, 12)
-    to the half-spaces."""
-    out = np.zeros((len(point_body), len(offsets)))
-    for i, (b, rest, radius) in enumerate(zip(point_body, point_rest, point_radius)):
+def world_distances(q, arrays) -> np.ndarray:
+    """Distances [m], shape (points, planes + shapes), of the contact points at states q
+    (n_bodies, 12) to the half-spaces, then to the static shapes (``arrays``: the contact
+    model fields)."""
+    planes, shapes = len(arrays['plane_offset']), len(arrays['shape_kind'])
+    out = np.zeros((len(arrays['point_body']), planes + shapes))
+    for i, (b, rest, radius) in enumerate(zip(arrays['point_body'], arrays['point_rest'],
+                                              arrays['point_radius'])):
         x = q[b, :3] + pm.matmul(q[b, 3:].reshape(3, 3), rest)
-        for g, (normal, offset) in enumerate(zip(normals, offsets)):
-            out[i, g] = pm.dot(normal, x) - offset - radius
+        for g in range(planes):
+            out[i, g] = pm.dot(arrays['plane_normal'][g], x) - arrays['plane_offset'][g] - radius
+        for s in range(shapes):
+            out[i, planes + s] = shape_distance(
+                arrays['shape_kind'][s], arrays['shape_rotation'][s], arrays['shape_center'][s],
+                arrays['shape_size'][s], x) - radius
     return out
+
+
+def _geometries(body) -> list[Collision]:
+    """A body's collision geometries (its own shape for ``collision: shape``)."""
+    return [_shape_collision(body.shape)] if body.collision == 'shape' else body.collision
 
 
 def contact_arrays(scene, q0: np.ndarray) -> dict:
     """The contact model fields of ``scene`` with initial states ``q0`` (n_bodies, 12); a
     scene without ``contact`` and ``ground`` gets empty tables and has_contact 0. Raises
-    SceneError if a contact point starts on or inside a half-space."""
+    SceneError if a contact point starts on or inside a half-space or a static shape."""
     on = scene.contact is not None or scene.ground is not None
     settings = scene.contact or Contact()
     bodies, rests, radii = [], [], []
     for b, body in enumerate(scene.bodies if on else []):
-        if body.collision is None:
+        if body.collision is None or body.fixed:
             continue
-        if body.fixed:
-            warnings.warn(f'body {body.name!r}: the collision geometry of a fixed body is not '
-                          'used yet (only ground half-spaces are static geometry so far)',
-                          SimulationWarning, stacklevel=3)
-            continue
-        geometries = ([_shape_collision(body.shape)] if body.collision == 'shape'
-                      else body.collision)
-        for k, geometry in enumerate(geometries):
+        for k, geometry in enumerate(_geometries(body)):
             where = f'body {body.name!r} (bodies[{b}].collision' + (
                 ')' if body.collision == 'shape' else f'[{k}])')
             for rest, radius in _points(geometry, where):
@@ -132,31 +139,49 @@ def contact_arrays(scene, q0: np.ndarray) -> dict:
                       '(a step must never end inside the ground)', SimulationWarning,
                       stacklevel=3)
     normals, offsets, names = _half_spaces(scene) if on else (np.zeros((0, 3)), np.zeros(0), [])
+    shapes, owners, shape_names = static_shapes(scene.bodies if on else [], q0, _geometries)
     body_mu = [settings.friction if body.friction is None else body.friction
                for body in scene.bodies]
-    plane_mu = [settings.friction if half.friction is None else half.friction
-                for half in (scene.ground or [])] if on else []
+    static_mu = [settings.friction if half.friction is None else half.friction
+                 for half in (scene.ground or [])] if on else []
+    static_mu += [body_mu[f] for f in owners]
     arrays = dict(has_contact=int(on), contact_d_hat=settings.d_hat,
                   contact_kappa=settings.kappa, contact_eps_velocity=settings.eps_velocity,
                   plane_tangent=np.array([_tangent(n) for n in normals]).reshape(-1, 3),
                   pair_friction=np.array([combined_friction(body_mu[b], mu)
-                                          for b in bodies for mu in plane_mu],
+                                          for b in bodies for mu in static_mu],
                                          dtype=np.float64),
+                  pair_on=_pair_on(scene, settings, bodies, len(offsets), owners),
                   point_body=np.array(bodies, dtype=np.int32),
                   point_rest=np.array(rests, dtype=np.float64).reshape(-1, 3),
                   point_radius=np.array(radii, dtype=np.float64),
-                  plane_normal=normals, plane_offset=offsets)
-    _refuse_touching(scene, q0, arrays, names)
+                  plane_normal=normals, plane_offset=offsets, **shapes)
+    _refuse_touching(scene, q0, arrays, names + shape_names)
     return arrays
 
 
+def _pair_on(scene, settings, bodies, planes: int, owners) -> np.ndarray:
+    """1 per (point, static thing) pair that may touch: every half-space; a shape unless it
+    belongs to the point's own articulation (then only with self_collision, and never to a
+    body jointed to the point's)."""
+    group, jointed = scene.articulations()
+
+    def may_touch(b, f):
+        if group[b] != group[f]:
+            return 1
+        return int(settings.self_collision and (b, f) not in jointed)
+
+    return np.array([[1] * planes + [may_touch(b, f) for f in owners] for b in bodies],
+                    dtype=np.int32).reshape(-1)
+
+
 def _refuse_touching(scene, q0, arrays, names) -> None:
-    """SceneError naming the body and the half-space if a point starts at distance ≤ 0."""
+    """SceneError naming the body and the half-space or shape if a point that may touch it
+    starts at distance ≤ 0."""
     if not len(arrays['point_body']) or not len(names):
         return
-    distances = world_distances(q0, arrays['point_body'], arrays['point_rest'],
-                                arrays['point_radius'], arrays['plane_normal'],
-                                arrays['plane_offset'])
+    distances = world_distances(q0, arrays)
+    distances[arrays['pair_on'].reshape(distances.shape) == 0] = np.inf
     i, g = np.unravel_index(int(np.argmin(distances)), distances.shape)
     if distances[i, g] <= 0.0:
         body = scene.bodies[arrays['point_body'][i]].name

@@ -5,7 +5,9 @@ device arrays the Stepper allocates (``allocate``) and the check that a host mod
 exactly the model's fields (``HostModel``). Shapes are symbolic: ``body`` (every scene body,
 fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments), the
 statistics columns, ``problem`` (PROBLEM_COLUMNS), ``point`` (contact points: collision
-vertices and sphere centres), ``plane`` (static half-spaces) and ``pair`` (point × plane);
+vertices and sphere centres), ``plane`` (static half-spaces), ``shape`` (fixed bodies'
+collision geometries: static boxes, spheres, capsules, cylinders) and ``pair`` (point × static
+thing: the planes, then the shapes);
 ``()`` is a plain struct member, not an array. Frames: world, SI units.
 """
 
@@ -23,7 +25,8 @@ __all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'C
 
 @dataclass(frozen=True)
 class Field:
-    """One field: ``dtype`` is int32, scalar (the precision's float), vec3, vec12 or mat12."""
+    """One field: ``dtype`` is int32, scalar (the precision's float), vec3, mat33, vec12 or
+    mat12."""
 
     name: str
     group: str
@@ -116,8 +119,16 @@ FIELDS = _fields('model', [
     ('plane_offset', 'scalar', ('plane',), 'm', 'its offset h: the half-space n·x ≥ h'),
     ('plane_tangent', 'vec3', ('plane',), '-', 'first unit tangent t₁ of its friction basis '
      '(t₂ = n × t₁)'),
-    ('pair_friction', 'scalar', ('pair',), '-', 'Coulomb μ of point i against half-space g, '
-     'pair i·planes + g'),
+    ('shape_kind', 'int32', ('shape',), '-', 'a fixed body\'s collision geometry: 1 box, '
+     '2 sphere, 3 capsule, 4 cylinder'),
+    ('shape_rotation', 'mat33', ('shape',), '-', 'its axes in the world (columns)'),
+    ('shape_center', 'vec3', ('shape',), 'm', 'its centre in the world'),
+    ('shape_size', 'vec3', ('shape',), 'm', 'box: half sides; sphere: (ρ, 0, 0); capsule and '
+     'cylinder: (ρ, half length along its z, 0)'),
+    ('pair_friction', 'scalar', ('pair',), '-', 'Coulomb μ of point i against static thing g '
+     '(the half-spaces, then the shapes), pair i·(planes + shapes) + g'),
+    ('pair_on', 'int32', ('pair',), '-', '1: the pair may touch (0: a shape of the point\'s own '
+     'articulation without self_collision, or of a body jointed to it)'),
     ('contact_eps_velocity', 'scalar', (), 'm/s', 'slip speed ε_v below which friction is '
      'viscous'),
 ]) + _fields('state', [
@@ -163,7 +174,7 @@ FIELDS = _fields('model', [
     ('joint_raw', 'scalar', EJ, 'rad | m', 'raw coordinate of each joint at the Newton result '
      '(joint_raw_coordinate), for the commit'),
     ('friction_normal', 'scalar', ('env', 'pair'), 'N·s²', 'lagged normal force dt²·λ of each '
-     '(point, half-space) pair at the start of the step (0: no friction this step)'),
+     '(point, static thing) pair at the start of the step (0: no friction this step)'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])
@@ -231,7 +242,8 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
     return {'env': envs, 'chunk': chunks, 'body': host.body_count,
             'free': int(np.sum(host.body_fixed == 0)),
             'joint': host.joint_count, 'point': len(host.point_body),
-            'plane': len(host.plane_offset), 'pair': len(host.pair_friction),
+            'plane': len(host.plane_offset), 'shape': len(host.shape_kind),
+            'pair': len(host.pair_friction),
             'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 

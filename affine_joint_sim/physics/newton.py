@@ -10,9 +10,11 @@ the full step with the bodies' turns followed on their rotations (``moved``), el
 backtracking search on the straight path (≤ HALVINGS halvings); a trial is accepted on no
 increase up to the rounding of E, its own and that from the coordinates' (see
 ``position_rounding``). With contact (docs/physics.md#contact) the straight path starts at
-the step bound that keeps every point clear of the half-spaces, energies are +∞ on
-penetration, Newton starts from q_n where the prediction touches, converges only on a full
-step that is collision-free, and always searches. Runs inside the step kernel: no host sync.
+the step bound that keeps every point clear of the static things, energies are +∞ on
+penetration, Newton starts from q_n where the prediction touches (or, with static shapes, is
+not reached from q_n on a collision-free straight path), converges only on a full step that
+is collision-free, and always searches; with static shapes the search follows straight paths
+only. Runs inside the step kernel: no host sync.
 """
 
 from types import SimpleNamespace
@@ -206,13 +208,17 @@ def build(t) -> SimpleNamespace:
         slack = roundoff * wp.abs(energy) + position_rounding(model, q, scratch, env,
                                                               kinetic_scale)
         bound = energy + slack
-        move(model, q, scratch, env, full_step(model, scratch, env), 1)
-        trial = incremental_potential(model, state, control, q, scratch, env, kinetic_scale,
-                                      bdf2)
         accepted = int(0)
         halvings = int(0)
-        if trial <= bound:
-            accepted = 1
+        trial = energy
+        # along turns points leave their straight lines: a check of its end is enough against
+        # half-spaces (one free side), not against a static shape a point could pass
+        if model.shape_kind.shape[0] == 0:
+            move(model, q, scratch, env, full_step(model, scratch, env), 1)
+            trial = incremental_potential(model, state, control, q, scratch, env,
+                                          kinetic_scale, bdf2)
+            if trial <= bound:
+                accepted = 1
         alpha = one
         if model.has_contact != 0:      # no point comes closer than η of its gap (contact)
             alpha = step_bound(model, scratch, env)
@@ -230,6 +236,22 @@ def build(t) -> SimpleNamespace:
         return trial, halvings, accepted
 
     @wp.func
+    def reachable(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
+        """Whether Newton may start from the prediction q: it touches nothing and, with static
+        shapes (which, unlike a half-space, a point can pass), the straight path to it from
+        q_n keeps every gap (``step_bound`` of 1 from q_n; scratch.q_start and dq are used as
+        its input, before Newton sets them)."""
+        nearest, active = touching(model, q, env)
+        clear = nearest > zero
+        if clear and model.shape_kind.shape[0] > 0:
+            for k in range(model.elim_order.shape[0]):
+                b = model.elim_order[k]
+                scratch.q_start[env, b] = scratch.q_n[env, b]
+                scratch.dq[env, b] = q[env, b] - scratch.q_n[env, b]
+            clear = step_bound(model, scratch, env) >= one
+        return clear
+
+    @wp.func
     def newton(model: Model, state: State, control: Control, scratch: Scratch, env: int,
                kinetic_scale: scalar, bdf2: int):
         """Minimise E from q̃ without the commands' push (scratch.q_start, see ``predict``).
@@ -243,12 +265,10 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
-        if model.has_contact != 0:
-            nearest, active = touching(model, q, env)
-            if nearest <= zero:     # the prediction touches: start from q_n, which does not
-                for k in range(n_free):
-                    b = model.elim_order[k]
-                    q[env, b] = scratch.q_n[env, b]
+        if model.has_contact != 0 and not reachable(model, q, scratch, env):
+            for k in range(n_free):     # start from q_n, which touches nothing
+                b = model.elim_order[k]
+                q[env, b] = scratch.q_n[env, b]
         for k in range(model.joint_parent.shape[0]):
             scratch.limit_depth[env, k] = -one
         # newton_tol·dt, or the rounding of an update if larger: below it Newton only cycles
@@ -301,5 +321,5 @@ def build(t) -> SimpleNamespace:
     return SimpleNamespace(warm_start=warm_start, update_size=update_size,
                            update_test=update_test, extent=extent,
                            rotation_of=rotation_of, rates=rates, moved=moved,
-                           full_step=full_step, move=move,
+                           full_step=full_step, move=move, reachable=reachable,
                            line_search=line_search, newton=newton)

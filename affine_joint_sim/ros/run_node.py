@@ -96,7 +96,7 @@ def print_summary(summary: dict) -> None:
           '(stats rotation_strain; viewers draw the nearest rotation)')
     contact = summary.get('contact')
     if contact is not None:
-        print(f'contact: smallest distance to the ground {contact["min_distance"]:.3g} m, at '
+        print(f'contact: smallest distance to the world {contact["min_distance"]:.3g} m, at '
               f'most {contact["most_contacts"]} contacts at once')
     if summary['bag']:
         stopped = summary['recording_stopped']

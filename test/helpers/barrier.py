@@ -1,9 +1,11 @@
-"""The barrier's resting distance, the oracle of the contact tests (closed form of the
-barrier's force, solved by bisection)."""
+"""Oracles of the contact tests: the barrier's resting distance (closed form of the barrier's
+force, solved by bisection) and central differences of the contact terms."""
 
 import math
 
-__all__ = ['resting_distance']
+import numpy as np
+
+__all__ = ['resting_distance', 'contact_terms']
 
 
 def resting_distance(force, d_hat, kappa):
@@ -20,3 +22,26 @@ def resting_distance(force, d_hat, kappa):
         mid = 0.5 * (low + high)
         low, high = (mid, high) if normal_force(mid) > force else (low, mid)
     return 0.5 * (low + high)
+
+
+def contact_terms(with_contact, without, q, q_tilde, step, row=0):
+    """(gradient, Hessian, and their central differences with ``step``) of the contact terms
+    alone at q (every body's state, (n_bodies, 12)) of a scene with one free body, in row
+    ``row`` of q: the assembly of a scene with contact minus that of the same scene without
+    (``Stages``)."""
+    def gradient_at(x):
+        return (with_contact.newton_system(x, q_tilde)[0]
+                - without.newton_system(x, q_tilde)[0])
+
+    def energy_at(x):
+        return with_contact.energy(x, q_tilde) - without.energy(x, q_tilde)
+
+    hessian = (with_contact.newton_system(q, q_tilde)[1]
+               - without.newton_system(q, q_tilde)[1])
+    fd_gradient, fd_hessian = np.zeros(12), np.zeros((12, 12))
+    for i in range(12):
+        e = np.zeros_like(q)
+        e[row, i] = step
+        fd_gradient[i] = (energy_at(q + e) - energy_at(q - e)) / (2 * step)
+        fd_hessian[:, i] = (gradient_at(q + e) - gradient_at(q - e)) / (2 * step)
+    return gradient_at(q), hessian, fd_gradient, fd_hessian

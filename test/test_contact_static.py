@@ -1,0 +1,149 @@
+"""Contact with fixed bodies' geometry (static shapes; README.md#contact): the exact distance
+to boxes, spheres, capsules and cylinders against the closed forms, the barrier's gradient
+against finite differences in every region of each shape, resting on a table at the barrier's
+equilibrium, a fast box that cannot pass a thin slab, articulations that do not touch their
+own fixed geometry, and the refusal of a scene that starts inside one."""
+
+import math
+
+import numpy as np
+import pytest
+
+from affine_joint_sim.physics.evaluate import Stages
+from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_distance
+from affine_joint_sim.rotations import rpy_matrix
+from affine_joint_sim.scene import Scene, SceneError
+from affine_joint_sim.stepper import Stepper
+from helpers.barrier import contact_terms, resting_distance
+
+G = 9.81
+D_HAT = 0.01
+TABLE = {'name': 'table', 'fixed': True, 'mass': 10.0, 'shape': {'box': [1.0, 1.0, 0.1]},
+         'collision': 'shape'}      # its top at z = 0.05
+
+
+def _scene(fixed: dict, free: dict, **extra) -> Scene:
+    return Scene.from_dict({
+        'dt': 0.01, 'solver': {'integrator': 'bdf1'}, 'contact': {'d_hat': D_HAT, **extra},
+        'bodies': [fixed, {'name': 'thing', 'mass': 1.0, 'collision': 'shape', **free}]})
+
+
+def test_shape_distances_match_their_closed_forms():
+    turn = rpy_matrix(0.3, -0.2, 0.5)
+    centre = np.array([0.1, -0.2, 0.3])
+
+    def at(local):
+        return centre + turn @ np.asarray(local, float)
+
+    box = (SHAPE_KINDS['box'], turn, centre, [0.2, 0.1, 0.05])
+    assert shape_distance(*box, at([0.3, 0.0, 0.0])) == pytest.approx(0.1)          # face
+    assert shape_distance(*box, at([0.3, 0.2, 0.0])) == pytest.approx(math.hypot(0.1, 0.1))
+    assert shape_distance(*box, at([0.3, 0.2, 0.1])) == pytest.approx(
+        math.sqrt(0.01 + 0.01 + 0.0025))                                          # corner
+    assert shape_distance(*box, at([0.0, 0.0, 0.04])) == pytest.approx(-0.01)     # inside
+    capsule = (SHAPE_KINDS['capsule'], turn, centre, [0.05, 0.2, 0.0])
+    assert shape_distance(*capsule, at([0.1, 0.0, 0.1])) == pytest.approx(0.05)
+    assert shape_distance(*capsule, at([0.0, 0.0, 0.35])) == pytest.approx(0.1)
+    cylinder = (SHAPE_KINDS['cylinder'], turn, centre, [0.05, 0.2, 0.0])
+    assert shape_distance(*cylinder, at([0.0, 0.0, 0.3])) == pytest.approx(0.1)    # end face
+    assert shape_distance(*cylinder, at([0.0, 0.08, 0.0])) == pytest.approx(0.03)  # side
+    assert shape_distance(*cylinder, at([0.08, 0.0, 0.24])) == pytest.approx(0.05)  # rim
+    sphere = (SHAPE_KINDS['sphere'], turn, centre, [0.05, 0.0, 0.0])
+    assert shape_distance(*sphere, at([0.0, 0.06, 0.08])) == pytest.approx(0.05)
+
+
+# (fixed body, free ball's centre) in each region of each shape: a face, an edge and a corner
+# of a box, a sphere, a capsule's side and cap, a cylinder's side, end and rim; every ball
+# 0.4–0.9 d̂ from the surface
+REGIONS = {
+    'box face': ({'box': [0.4, 0.4, 0.1]}, [0.05, 0.1, 0.05 + 0.02 + 0.006]),
+    'box edge': ({'box': [0.4, 0.4, 0.1]}, [0.2 + 0.015, 0.0, 0.05 + 0.015]),
+    'box corner': ({'box': [0.4, 0.4, 0.1]}, [0.2 + 0.013, 0.2 + 0.013, 0.05 + 0.014]),
+    'sphere': ({'sphere': {'radius': 0.1}}, [0.06, 0.05, 0.1]),
+    'capsule side': ({'capsule': {'radius': 0.05, 'length': 0.2}}, [0.077, 0.0, 0.05]),
+    'capsule cap': ({'capsule': {'radius': 0.05, 'length': 0.2}}, [0.0, 0.03, 0.17]),
+    'cylinder side': ({'cylinder': {'radius': 0.05, 'length': 0.2}}, [0.0, 0.077, 0.0]),
+    'cylinder end': ({'cylinder': {'radius': 0.05, 'length': 0.2}}, [0.01, 0.0, 0.127]),
+    'cylinder rim': ({'cylinder': {'radius': 0.05, 'length': 0.2}}, [0.065, 0.0, 0.115]),
+}
+
+
+@pytest.mark.parametrize('region', REGIONS)
+def test_the_barrier_gradient_against_a_shape_matches_finite_differences(region):
+    geometry, centre = REGIONS[region]
+    fixed = {'name': 'obstacle', 'fixed': True, 'mass': 1.0, 'position': [0.0, 0.0, 0.0],
+             'orientation': {'rpy': [0.2, -0.1, 0.3]}, 'collision': [geometry]}
+    turn = rpy_matrix(0.2, -0.1, 0.3)
+    ball = {'shape': {'sphere': {'radius': 0.02}}, 'position': list(turn @ centre)}
+    scene = _scene(fixed, ball)
+    scene = scene.model_copy(update={'gravity': (0.0, 0.0, 0.0)})
+    with_contact = Stages(scene)
+    without = Stages(scene.model_copy(update={'contact': None}))
+    q = with_contact.host.body_q0.copy()
+    rng = np.random.default_rng(7)
+    q[1, 3:] += 1e-3 * rng.normal(size=9)
+    gradient, hessian, fd_gradient, fd_hessian = contact_terms(with_contact, without, q,
+                                                               q + 1e-4, step=1e-7, row=1)
+    assert np.abs(fd_gradient).max() > 1e-3           # the barrier is active
+    np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
+                               atol=1e-6 * np.abs(fd_gradient).max())
+    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()
+    if region == 'box face':            # a flat face: the distance is linear, the Hessian exact
+        np.testing.assert_allclose(hessian, fd_hessian, rtol=1e-5,
+                                   atol=1e-6 * np.abs(fd_hessian).max())
+
+
+def test_a_box_rests_on_a_table_at_the_barrier_equilibrium():
+    sim = Stepper(_scene(TABLE, {'shape': {'box': [0.1, 0.1, 0.1]},
+                                 'position': [0.2, -0.1, 0.12]}))
+    for _ in range(300):
+        sim.step()
+        assert sim.stats['min_distance'] > 0.0
+    assert sim.stats['contacts'] == 4
+    assert sim.body_q[1][2] == pytest.approx(0.1 + resting_distance(G / 4, D_HAT, 1e9),
+                                             abs=1e-6)
+
+
+def test_a_ball_rests_on_the_end_of_a_standing_cylinder():
+    post = {'name': 'post', 'fixed': True, 'mass': 1.0, 'position': [0.0, 0.0, 0.5],
+            'shape': {'cylinder': {'radius': 0.1, 'length': 1.0}}, 'collision': 'shape'}
+    sim = Stepper(_scene(post, {'shape': {'sphere': {'radius': 0.05}},
+                                'position': [0.02, 0.03, 1.07]}))
+    for _ in range(300):
+        sim.step()
+    assert sim.stats['contacts'] == 1
+    assert sim.body_q[1][2] == pytest.approx(1.05 + resting_distance(G, D_HAT, 1e9), abs=1e-6)
+
+
+def test_a_fast_box_cannot_pass_a_thin_slab():
+    """At 20 m/s a step moves the box 0.2 m: its prediction lies beyond the 1 cm slab,
+    collision-free there; Newton must not start from it."""
+    slab = {'name': 'slab', 'fixed': True, 'mass': 1.0, 'shape': {'box': [1.0, 1.0, 0.01]},
+            'collision': 'shape'}
+    sim = Stepper(_scene(slab, {'shape': {'box': [0.1, 0.1, 0.1]}, 'position': [0.0, 0.0, 0.3],
+                                'linear_velocity': [0.0, 0.0, -20.0]}))
+    for _ in range(100):
+        sim.step()
+        assert sim.stats['min_distance'] > 0.0
+        assert sim.body_q[1][2] > 0.005 + 0.05
+    assert sim.stats['contacts'] == 4 and abs(sim.body_qdot[1][2]) < 1e-3
+
+
+def _hinged(**contact) -> Scene:
+    """A fixed base box and a link hinged to it whose box overlaps the base at the hinge."""
+    return Scene.from_dict({
+        'gravity': [0.0, 0.0, 0.0], 'contact': contact,
+        'bodies': [{'name': 'base', 'fixed': True, 'mass': 1.0, 'shape': {'box': [0.2] * 3},
+                    'collision': 'shape'},
+                   {'name': 'link', 'mass': 1.0, 'shape': {'box': [0.3, 0.05, 0.05]},
+                    'position': [0.2, 0.0, 0.0], 'collision': 'shape'}],
+        'joints': [{'name': 'hinge', 'type': 'revolute', 'parent': 'base', 'child': 'link',
+                    'x0': [0.1, 0.0, -0.1], 'x1': [0.1, 0.0, 0.1]}]})
+
+
+def test_an_articulation_does_not_touch_its_own_fixed_geometry_and_others_do():
+    Stepper(_hinged()).step()                            # the link starts inside its base
+    Stepper(_hinged(self_collision=True)).step()         # jointed to it: never
+    intruder = _scene(TABLE, {'shape': {'box': [0.1, 0.1, 0.1]}, 'position': [0.0, 0.0, 0.08]})
+    with pytest.raises(SceneError, match=r"body 'thing' starts 0\.02 m inside table"):
+        Stepper(intruder)
