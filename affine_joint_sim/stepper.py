@@ -26,6 +26,7 @@ from affine_joint_sim.physics.frames import POSE_COLUMNS
 from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
+from affine_joint_sim.physics.contact_report import active_contacts
 from affine_joint_sim.physics.model import build_model, largest_step_efforts
 from affine_joint_sim.physics.newton import HALVINGS
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
@@ -48,9 +49,11 @@ _PROBLEMS = {      # by physics.fields.PROBLEM_NAMES
     'line_search_failures': f'the line search found no decrease in {HALVINGS} halvings',
 }
 _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_rejected')
-# Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU.
+# Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU
+# (State arrays, and the Scratch ones the contact report needs).
 _OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort'),
                   'contact_record': ('nearest_seen', 'most_contacts'),
+                  'contact_forces': ('q_n', 'friction_normal'),
                   'stats': ('stats_int', 'stats_float'), 'bodies': ('q', 'v'),
                   'coordinate': ('joint_coordinate',)}
 
@@ -446,6 +449,21 @@ class Stepper:
     # ---- internals --------------------------------------------------------------------------
 
     @property
+    def contacts(self) -> list:
+        """The active contacts (pairs closer than d̂) at the current state: a list of dicts
+        (``body``, ``other``: the half-space or fixed body, ``point`` [m, world] on the other's
+        surface, ``normal`` (unit, towards the body), ``distance`` [m], ``normal_force`` [N],
+        ``friction_force`` [N, world, on the body]; physics.contact_report), one list per
+        environment when batched; empty without contact."""
+        if not self._host.has_contact:
+            per_env = [[] for _ in range(self._envs)]
+        else:
+            q, q_n, normal = (self._read(name) for name in ('q', 'q_n', 'friction_normal'))
+            per_env = [active_contacts(self._host, q[e], q_n[e], normal[e], self.body_names,
+                                       self._host.static_names) for e in range(self._envs)]
+        return per_env if self._batched else per_env[0]
+
+    @property
     def contact_record(self) -> dict | None:
         """In a scene with contact, ``min_distance``: the smallest distance of a body to the
         world (ground and fixed bodies' geometry) at the end of any step since this Stepper
@@ -473,7 +491,10 @@ class Stepper:
         self._torque, self._enabled, self._target, self._drive_enabled = (
             self._uploads.views.values())
         self._terms, self._terms_at = [], -1
-        self._downloads = Downloads(dev, {group: {name: getattr(state, name) for name in names}
+        owner = {name: state if hasattr(state, name) else scratch
+                 for names in _OUTPUT_GROUPS.values() for name in names}
+        self._downloads = Downloads(dev, {group: {name: getattr(owner[name], name)
+                                                  for name in names}
                                           for group, names in _OUTPUT_GROUPS.items()}, separate)
         state.nearest_seen.fill_(float('inf'))
         self._problems_host = host_copy(state.problem_counts, separate)

@@ -24,7 +24,7 @@ def test_a_quick_run_writes_every_scene_and_ratio_and_never_touches_the_ground(t
         for dt in (quick.robot_dts if case.robot else quick.dts)]
     assert {'us_per_step', 'mujoco_us', 'newton_iterations', 'unconverged', 'rejected',
             'quantity', 'exact', 'ours', 'mujoco', 'error', 'mujoco_error', 'spin',
-            'min_distance', 'mujoco_min_distance', 'realtime'} <= set(rows[0])
+            'min_distance', 'mujoco_min_distance', 'spread', 'realtime'} <= set(rows[0])
     for row in rows:
         assert float(row['min_distance']) > 0.0, row['scene']
         assert (row['unconverged'], row['rejected']) == ('0', '0'), row['scene']

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from affine_joint_sim.physics.evaluate import Stages
+from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper
 from helpers.barrier import contact_terms, resting_distance
@@ -94,7 +95,6 @@ def _near_ground_state(scene, rng):
     """A state of the box with every corner between 0.2 d̂ and 0.9 d̂ above the ground."""
     q = np.zeros((1, 12))
     tilt = 0.02 * rng.normal(size=3)
-    from affine_joint_sim.rotations import rpy_matrix
     a = rpy_matrix(*tilt) @ (np.eye(3) + 1e-4 * rng.normal(size=(3, 3)))
     q[0, 3:] = a.reshape(9)
     corners = np.array([[sx, sy, sz] for sx in (-0.05, 0.05) for sy in (-0.05, 0.05)
@@ -167,8 +167,8 @@ def test_collision_geometry_becomes_contact_points_in_the_body_frame():
 
 
 def _incline_run(mu, tilt_deg=20.0, steps=300):
-    """Along-slope speeds [m/s] of a 1 kg box on a tilted half-space (BDF1, dt 0.01,
-    d̂ 1 cm, ε_v 1 cm/s), every step."""
+    """(Along-slope speeds [m/s] of a 1 kg box on a tilted half-space (BDF1, dt 0.01,
+    d̂ 1 cm, ε_v 1 cm/s) every step, the Stepper at the end)."""
     tilt = math.radians(tilt_deg)
     scene = _box_scene(0.2, ground={'point': [0.0, 0.0, 0.0],
                                     'normal': [math.sin(tilt), 0.0, math.cos(tilt)]},
@@ -182,22 +182,66 @@ def _incline_run(mu, tilt_deg=20.0, steps=300):
         sim.step()
         assert sim.stats['converged'] and sim.stats['min_distance'] > 0.0
         speeds.append(sim.body_qdot[0][:3] @ down)
-    return np.array(speeds)
+    return np.array(speeds), sim
 
 
 def test_a_box_that_sticks_on_an_incline_creeps_at_the_smoothed_friction_speed():
     # tan 20° < μ = 0.5: smoothed friction creeps at ε_v (1 − √(1 − tan α / μ)) = 4.78 mm/s
-    speeds = _incline_run(0.5)
+    speeds, _ = _incline_run(0.5)
     expected = 0.01 * (1.0 - math.sqrt(1.0 - math.tan(math.radians(20.0)) / 0.5))
-    np.testing.assert_allclose(speeds[-100:], expected, rtol=1e-4)
+    np.testing.assert_allclose(speeds[-100:], expected, rtol=1e-3)   # within Newton's tolerance
+
+
+def test_contacts_report_the_normal_and_friction_forces_that_hold_a_creeping_box():
+    speeds, sim = _incline_run(0.5)         # creeping at a steady speed: forces balance
+    tilt = math.radians(20.0)
+    normal = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+    contacts = sim.contacts
+    assert len(contacts) == 4 == sim.stats['contacts']
+    assert {(c['body'], c['other']) for c in contacts} == {('box', 'ground')}
+    total = sum(c['normal_force'] * c['normal'] + c['friction_force'] for c in contacts)
+    np.testing.assert_allclose(total, [0.0, 0.0, G], atol=1e-4 * G)     # holds its weight
+    friction = sum(c['friction_force'] for c in contacts)
+    assert friction @ normal == pytest.approx(0.0, abs=1e-12)
+    assert np.linalg.norm(friction) == pytest.approx(G * math.sin(tilt), rel=1e-4)
+    for c in contacts:
+        np.testing.assert_allclose(c['normal'], normal)
+        assert c['point'] @ normal == pytest.approx(0.0, abs=1e-12)      # on the ground
+        assert 0.0 < c['distance'] < 0.01
 
 
 def test_a_box_that_slips_on_an_incline_accelerates_at_g_sin_minus_mu_g_cos():
-    speeds = _incline_run(0.2)
+    speeds, _ = _incline_run(0.2)
     tilt = math.radians(20.0)
     acceleration = np.diff(speeds[-100:]) / 0.01
     np.testing.assert_allclose(acceleration, G * (math.sin(tilt) - 0.2 * math.cos(tilt)),
                                rtol=1e-4)
+
+
+def test_a_solid_ball_rolls_down_an_incline_at_five_sevenths_g_sin_alpha():
+    """Friction acts where the ball touches, r below its centre: it turns the ball (before,
+    at the centre, the ball crept down without turning). BDF2 (the default): BDF1 damps a
+    fast spin (its rotation is slowed by about (ω dt)² a step), which friction then drags."""
+    tilt, radius, dt = math.radians(20.0), 0.05, 0.002
+    normal = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+    scene = Scene.from_dict({
+        'dt': dt, 'bodies': [{'name': 'ball', 'shape': {'sphere': {'radius': radius}},
+                              'mass': 1.0, 'position': list((radius + 5e-4) * normal),
+                              'collision': 'shape'}],
+        'ground': {'point': [0.0, 0.0, 0.0], 'normal': list(normal)},
+        'contact': {'friction': 0.5}})
+    sim = Stepper(scene)
+    down = np.array([math.cos(tilt), 0.0, -math.sin(tilt)])
+    speeds, spins = [], []
+    for _ in range(250):
+        sim.step()
+        assert sim.stats['min_distance'] > 0.0
+        speeds.append(sim.body_qdot[0][:3] @ down)
+        a, a_dot = sim.body_q[0][3:].reshape(3, 3), sim.body_qdot[0][3:].reshape(3, 3)
+        spins.append((a_dot @ a.T)[0, 2])       # ω_y of [ω]× = Ȧ Aᵀ: rolling down x
+    acceleration = (speeds[-1] - speeds[124]) / (125 * dt)
+    assert acceleration == pytest.approx(5.0 / 7.0 * G * math.sin(tilt), rel=0.04)
+    assert spins[-1] * radius == pytest.approx(speeds[-1], rel=0.04)       # rolls: ω r = v
 
 
 def test_a_sliding_box_stops_within_the_coulomb_stopping_distance():
@@ -223,18 +267,34 @@ def test_two_surfaces_combine_their_friction_by_the_harmonic_mean():
     assert combined_friction(0.0, 0.8) == 0.0 and combined_friction(0.0, 0.0) == 0.0
 
 
+def _ball_scene():
+    return Scene.from_dict({
+        'dt': 0.01, 'solver': {'integrator': 'bdf1'},
+        'bodies': [{'name': 'ball', 'shape': {'sphere': {'radius': 0.05}}, 'mass': 1.0,
+                    'position': [0.0, 0.0, 0.2], 'collision': 'shape'}],
+        'ground': {'height': 0.0}, 'contact': {'d_hat': 0.01}})
+
+
 @pytest.mark.parametrize('slip', [2e-5, 3e-3])      # below and beyond ε_v dt = 1e-4 m
-def test_the_friction_gradient_and_hessian_match_finite_differences(slip):
+@pytest.mark.parametrize('body', ['box', 'ball'])   # 8 corners; 1 centre, friction r below
+def test_the_friction_gradient_and_hessian_match_finite_differences(slip, body):
     rng = np.random.default_rng(5)
-    scene = _box_scene()
+    scene = _box_scene() if body == 'box' else _ball_scene()
     with_contact, without = Stages(scene), Stages(scene.model_copy(
         update={'ground': None, 'contact': None}))
-    q = _near_ground_state(scene, rng)
+    if body == 'box':
+        q = _near_ground_state(scene, rng)
+    else:
+        q = np.zeros((1, 12))
+        q[0, :3] = [0.01, -0.02, 0.055]
+        q[0, 3:] = rpy_matrix(0.3, -0.2, 0.1).reshape(9)
     start = q.copy()
     start[0, :2] -= slip * np.array([0.6, 0.8])           # where the step started
+    start[0, 3:] = (rpy_matrix(0.0, 0.0, 0.01) @ q[0, 3:].reshape(3, 3)).reshape(9)   # turned
     with_contact.scratch.q_n.assign(start[None])
-    # a lagged normal force on every corner (8 points × 1 plane), as at the step start
-    with_contact.scratch.friction_normal.assign(np.full((1, 8), 2.5e-4))
+    # a lagged normal force on every point against the plane, as at the step start
+    points = len(with_contact.host.point_body)
+    with_contact.scratch.friction_normal.assign(np.full((1, points), 2.5e-4))
     q_tilde = q.copy()
     gradient, hessian, fd_gradient, fd_hessian = contact_terms(with_contact, without, q,
                                                                 q_tilde, step=1e-8)

@@ -102,6 +102,10 @@ def test_a_box_rests_on_a_table_at_the_barrier_equilibrium():
     assert sim.stats['contacts'] == 4
     assert sim.body_q[1][2] == pytest.approx(0.1 + resting_distance(G / 4, D_HAT, 1e9),
                                              abs=1e-6)
+    contacts = sim.contacts                    # at rest: the table holds the box's weight
+    assert {(c['body'], c['other']) for c in contacts} == {('thing', 'table')}
+    assert sum(c['normal_force'] for c in contacts) == pytest.approx(G, rel=1e-4)
+    assert all(c['point'][2] == pytest.approx(0.05) for c in contacts)   # on the table top
 
 
 def test_a_ball_rests_on_the_end_of_a_standing_cylinder():

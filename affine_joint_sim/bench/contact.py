@@ -1,7 +1,7 @@
 """``bench contact``: ground contact against closed forms, beside MuJoCo, and what it costs.
 
 Six scenes, each at several dt, float64 on one CPU core, one environment, default contact
-settings (d̂ 1 mm, κ 1e9, ε_v 1 mm/s) and the default integrator: a 1 kg, 0.1 m box resting
+settings (d̂ 1 mm, κ 1e9, ε_v 1 mm/s) and the default integrator (BDF2): a 1 kg, 0.1 m box resting
 on the ground (its gap, against rigid contact's 0), the box slipping down a 20° incline at μ
 0.2 (its acceleration against g (sin α − μ cos α)), sticking on it at μ 0.5 (its creep speed
 against 0; ours creeps at ε_v (1 − √(1 − tan α / μ)) by design), stopping on flat ground from
@@ -13,10 +13,13 @@ runs the same scenes in MJCF: same masses, sizes and μ (MuJoCo combines the two
 max, ours by 2 μa μb / (μa + μb): both geoms get the scene's μ, so both pairs have it) and
 the quadruped from the same URDF (``mujoco.MjSpec``, with a free base and a floor).
 
-Speed ratios: a box far above the ground with contact against the same box without it, a
-box resting against the same box falling freely, and the quadruped's real-time factor.
-Writes contact.md, contact.csv, contact_ratios.csv and contact.png (error against µs/step,
-one panel per scene).
+Per scene and dt: µs/step, Newton iterations, unconverged and rejected steps, the quantity
+and its error, the nearest distance to the ground (ours must stay > 0; MuJoCo's is negative
+where it penetrates) and its spread over the run's last quarter (a body still bouncing or
+rocking on the ground). Speed ratios: a box far above the ground with contact against the
+same box without it, a box resting against the same box falling freely, and the quadruped's
+real-time factor. Writes contact.md, contact.csv, contact_ratios.csv and contact.png (error
+against µs/step, one panel per scene).
 """
 
 import math
@@ -31,7 +34,7 @@ import numpy as np
 from affine_joint_sim.bench.report import Column, markdown_table, publish, write_csv
 from affine_joint_sim.bench.section import add_section
 
-__all__ = ['FULL', 'QUICK', 'Settings', 'add_parser', 'measure', 'ratios', 'run']
+__all__ = ['CASES', 'FULL', 'QUICK', 'Settings', 'add_parser', 'measure', 'ratios', 'run']
 
 G = 9.81                     # m/s²
 TILT = math.radians(20.0)    # rad, the incline
@@ -122,16 +125,16 @@ def _second_half(trace: Trace, dt: float, key: str) -> float:
 def _spread(trace: Trace) -> float:
     """max − min of the nearest distance over the run's last quarter [m]: 0 once settled (or
     sliding steadily), the height of a bounce or a rocking otherwise, +inf when contact is
-    lost in between (MuJoCo)."""
+    lost in between (MuJoCo) or the run diverged."""
     last = trace.d[-max(1, len(trace.d) // 4):]
-    return float(last.max() - last.min())
+    return float(last.max() - last.min()) if np.isfinite(last).all() else math.inf
 
 
 @dataclass(frozen=True)
 class Case:
     """A scene: what is compared (``quantity``, with its unit), its closed form ``exact``
     (None: none) and our model's own where that differs (``model``), how it is read from a
-    run (``value(trace, dt)``), our scene and MuJoCo's at a dt, and our PD control if any."""
+    run (``value(trace, dt)``); a ``slab``, or (``robot``) the quadruped under ``_Stand``."""
 
     name: str
     quantity: str

@@ -31,6 +31,7 @@ def build(t) -> SimpleNamespace:
     zero, one, two, three, four = t.zero, t.one, t.two, t.three, t.four
     Model, Scratch = t.structs.Model, t.structs.Scratch
     world_point, jacobian_transpose, log = t.world_point, t.jacobian_transpose, t.log
+    affine = t.affine
     keep = scalar(1.0 - STEP_SLACK)
     infinity = scalar(float('inf'))
 
@@ -154,13 +155,18 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, i: int,
              g: int):
-        """(u₁, u₂, w₁, w₂): the tangential displacement [m] of point i since the start of the
-        step along the friction basis (t₁, t₂ = n × t₁) of static thing g, lagged at q_n (a
-        half-space's own; a shape's from its normal at q_n), and its gradients J(x̄)ᵀ t."""
+        """(u₁, u₂, w₁, w₂): the tangential displacement [m] since the start of the step, along
+        the friction basis (t₁, t₂ = n × t₁) of static thing g lagged at q_n (a half-space's
+        own; a shape's from its normal at q_n), of the material point where point i touches
+        (x̄ − r A_n⁻¹ n: a sphere's or capsule's surface point, so friction turns it), and
+        its gradients J(x̄_c)ᵀ t."""
         b = model.point_body[i]
-        rest = model.point_rest[i]
-        moved = world_point(q[env, b], rest) - world_point(scratch.q_n[env, b], rest)
         d, n = distance(model, scratch.q_n[env, b], i, g)
+        rest = model.point_rest[i]
+        radius = model.point_radius[i]
+        if radius > zero:       # slip where the sphere touches, r below its centre at q_n
+            rest = rest - radius * (wp.inverse(affine(scratch.q_n[env, b])) @ n)
+        moved = world_point(q[env, b], rest) - world_point(scratch.q_n[env, b], rest)
         t1 = tangent_of(n)
         if g < model.plane_offset.shape[0]:
             t1 = model.plane_tangent[g]

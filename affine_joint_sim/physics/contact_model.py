@@ -23,7 +23,8 @@ from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['CYLINDER_RIM_POINTS', 'combined_friction', 'contact_arrays', 'world_distances']
+__all__ = ['CYLINDER_RIM_POINTS', 'combined_friction', 'contact_arrays', 'tangent',
+           'world_distances']
 
 CYLINDER_RIM_POINTS = 16
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)
@@ -80,7 +81,7 @@ def _half_spaces(scene) -> tuple[np.ndarray, np.ndarray, list[str]]:
     return (np.array(normals).reshape(-1, 3), np.array(offsets, dtype=np.float64), names)
 
 
-def _tangent(normal) -> np.ndarray:
+def tangent(normal) -> np.ndarray:
     """t₁ of a half-space's friction basis: x̂ × n normalized (ẑ × n where n is within
     about 26° of x̂); t₂ = n × t₁."""
     axis = np.array([0.0, 0.0, 1.0]) if abs(normal[0]) > 0.9 else np.array([1.0, 0.0, 0.0])
@@ -117,10 +118,11 @@ def _geometries(body) -> list[Collision]:
     return [_shape_collision(body.shape)] if body.collision == 'shape' else body.collision
 
 
-def contact_arrays(scene, q0: np.ndarray) -> dict:
-    """The contact model fields of ``scene`` with initial states ``q0`` (n_bodies, 12); a
-    scene without ``contact`` and ``ground`` gets empty tables and has_contact 0. Raises
-    SceneError if a contact point starts on or inside a half-space or a static shape."""
+def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
+    """(the contact model fields of ``scene`` with initial states ``q0`` (n_bodies, 12), the
+    name of each static thing: ``ground`` or ``ground[k]``, then the fixed bodies); a scene
+    without ``contact`` and ``ground`` gets empty tables and has_contact 0. Raises SceneError
+    if a contact point starts on or inside a half-space or a static shape."""
     on = scene.contact is not None or scene.ground is not None
     settings = scene.contact or Contact()
     bodies, rests, radii = [], [], []
@@ -147,7 +149,7 @@ def contact_arrays(scene, q0: np.ndarray) -> dict:
     static_mu += [body_mu[f] for f in owners]
     arrays = dict(has_contact=int(on), contact_d_hat=settings.d_hat,
                   contact_kappa=settings.kappa, contact_eps_velocity=settings.eps_velocity,
-                  plane_tangent=np.array([_tangent(n) for n in normals]).reshape(-1, 3),
+                  plane_tangent=np.array([tangent(n) for n in normals]).reshape(-1, 3),
                   pair_friction=np.array([combined_friction(body_mu[b], mu)
                                           for b in bodies for mu in static_mu],
                                          dtype=np.float64),
@@ -157,7 +159,7 @@ def contact_arrays(scene, q0: np.ndarray) -> dict:
                   point_radius=np.array(radii, dtype=np.float64),
                   plane_normal=normals, plane_offset=offsets, **shapes)
     _refuse_touching(scene, q0, arrays, names + shape_names)
-    return arrays
+    return arrays, names + shape_names
 
 
 def _pair_on(scene, settings, bodies, planes: int, owners) -> np.ndarray:

@@ -31,8 +31,9 @@ class HostModel:
 
     Its attributes are exactly the model fields of ``physics.fields.FIELDS`` (names, units and
     shapes are documented there) plus host-only ones: ``precision``, ``active_terms`` (the
-    terms a step evaluates), ``body_q0`` and ``body_v0`` (initial state and velocity, (nb, 12)).
-    Body arrays have one row per scene body, fixed ones included (unused by the solver).
+    terms a step evaluates), ``body_q0`` and ``body_v0`` (initial state and velocity, (nb, 12))
+    and ``static_names`` (the name of each half-space, then each static shape). Body arrays
+    have one row per scene body, fixed ones included (unused by the solver).
     """
 
     def __init__(self, values: dict, **host_only):
@@ -120,7 +121,7 @@ def build_model(scene) -> HostModel:
     nonlinear = np.array([not JOINT_KINDS[code].linear for code in joints['joint_type']],
                          dtype=bool)
     state_coupling = bool((state_terms | (moving & nonlinear)).any())
-    contact = contact_arrays(scene, q0)
+    contact, static_names = contact_arrays(scene, q0)
     active += ['contact'] * contact['has_contact']
     values = dict(
         dt=scene.dt, gravity=gravity, has_gravity=int(np.any(gravity != 0.0)),
@@ -137,7 +138,7 @@ def build_model(scene) -> HostModel:
         joint_has_free=has_free, joint_offdiag_body=offdiag_body,
         joint_offdiag_child=offdiag_child, **joints, **contact)
     return HostModel(values, precision=scene.solver.precision, active_terms=active,
-                     body_q0=q0, body_v0=v0)
+                     body_q0=q0, body_v0=v0, static_names=static_names)
 
 
 def _joint_arrays(scene, rotations, q0, mass) -> dict:

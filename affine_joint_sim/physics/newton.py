@@ -12,7 +12,8 @@ increase up to the rounding of E, its own and that from the coordinates' (see
 ``position_rounding``). With contact (docs/physics.md#contact) the straight path starts at
 the step bound that keeps every point clear of the static things, energies are +∞ on
 penetration, Newton starts from q_n where the prediction touches (or, with static shapes, is
-not reached from q_n on a collision-free straight path), converges only on a full step that
+not reached from q_n on a collision-free straight path) or where E is lower at q_n (a
+resting body), converges only on a full step that
 is collision-free, and always searches; with static shapes the search follows straight paths
 only. Runs inside the step kernel: no host sync.
 """
@@ -265,10 +266,20 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
-        if model.has_contact != 0 and not reachable(model, q, scratch, env):
-            for k in range(n_free):     # start from q_n, which touches nothing
-                b = model.elim_order[k]
-                q[env, b] = scratch.q_n[env, b]
+        if model.has_contact != 0:
+            # from q_n (which touches nothing) where the prediction cannot be reached, or
+            # where q_n is lower in E: a resting body's prediction sinks into the barrier
+            from_n = int(0)
+            if not reachable(model, q, scratch, env):
+                from_n = 1
+            elif incremental_potential(model, state, control, scratch.q_n, scratch, env,
+                                       kinetic_scale, bdf2) < incremental_potential(
+                    model, state, control, q, scratch, env, kinetic_scale, bdf2):
+                from_n = 1
+            if from_n != 0:
+                for k in range(n_free):
+                    b = model.elim_order[k]
+                    q[env, b] = scratch.q_n[env, b]
         for k in range(model.joint_parent.shape[0]):
             scratch.limit_depth[env, k] = -one
         # newton_tol·dt, or the rounding of an update if larger: below it Newton only cycles

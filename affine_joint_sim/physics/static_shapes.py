@@ -16,7 +16,7 @@ from affine_joint_sim import portable_math as pm
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_distance']
+__all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_separation', 'shape_distance']
 
 SHAPE_KINDS = {'box': 1, 'sphere': 2, 'capsule': 3, 'cylinder': 4}
 
@@ -61,21 +61,41 @@ def _size(geometry) -> list[float]:
     return [solid.radius, 0.5 * solid.length, 0.0]
 
 
-def shape_distance(kind: int, rotation, center, size, x) -> float:
-    """Signed distance [m] of the world point ``x`` to a static shape's surface (negative
-    inside), as the kernel computes it."""
-    local = pm.matmul(np.asarray(rotation).T, np.asarray(x) - np.asarray(center))
+def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.ndarray]:
+    """(signed distance [m] of the world point ``x`` to a static shape's surface, negative
+    inside; the unit outward direction n, the distance's gradient), as the kernel computes
+    them (``contact.shape_separation``)."""
+    rotation = np.asarray(rotation)
+    local = pm.matmul(rotation.T, np.asarray(x) - np.asarray(center))
+    size = np.asarray(size)
+    sign = np.where(local < 0.0, -1.0, 1.0)
     if kind == SHAPE_KINDS['box']:
         excess = np.maximum(np.abs(local) - size, 0.0)
-        outside = pm.norm(excess)
-        return outside if outside > 0.0 else float(np.max(np.abs(local) - size))
-    if kind == SHAPE_KINDS['sphere']:
-        return pm.norm(local) - size[0]
+        d = pm.norm(excess)
+        if d > 0.0:
+            return d, pm.matmul(rotation, sign * excess / d)
+        axis = int(np.argmax(np.abs(local) - size))
+        return float(np.abs(local[axis]) - size[axis]), rotation[:, axis] * sign[axis]
+    if kind == SHAPE_KINDS['cylinder']:
+        radial = pm.norm(local[:2])
+        out = np.array([local[0] / radial, local[1] / radial, 0.0]) if radial > 0.0 \
+            else np.array([1.0, 0.0, 0.0])
+        up = np.array([0.0, 0.0, sign[2]])
+        dr, dz = radial - size[0], abs(local[2]) - size[1]
+        if dr > 0.0 and dz > 0.0:
+            d = pm.norm([dr, dz])
+            return d, pm.matmul(rotation, (dr * out + dz * up) / d)
+        return (dr, pm.matmul(rotation, out)) if dr > dz else (dz, pm.matmul(rotation, up))
+    axis_point = np.zeros(3)
     if kind == SHAPE_KINDS['capsule']:
-        axis_point = np.array([0.0, 0.0, min(max(local[2], -size[1]), size[1])])
-        return pm.norm(local - axis_point) - size[0]
-    radial = pm.norm(local[:2]) - size[0]
-    along = abs(local[2]) - size[1]
-    if radial > 0.0 and along > 0.0:
-        return pm.norm([radial, along])
-    return max(radial, along)
+        axis_point[2] = min(max(local[2], -size[1]), size[1])
+    gap = local - axis_point
+    length = pm.norm(gap)
+    n = gap / length if length > 0.0 else np.array([0.0, 0.0, 1.0])
+    return length - size[0], pm.matmul(rotation, n)
+
+
+def shape_distance(kind: int, rotation, center, size, x) -> float:
+    """Signed distance [m] of the world point ``x`` to a static shape's surface (negative
+    inside)."""
+    return shape_separation(kind, rotation, center, size, x)[0]

@@ -1,0 +1,91 @@
+"""The active contacts of a state, host side (``Stepper.contacts``, sensors, markers;
+README.md#contact).
+
+A pair is active when its distance is below d̂. Its normal force is the barrier's push
+−db/dd [N] at the state's distance; its friction force the lagged smoothed Coulomb friction
+of the last step: μ λ (f1(|u|)/|u|) against the slip u since the step's start, λ the normal
+force frozen at that start (``scratch.friction_normal`` / dt²). These are the forces the step
+balanced, as ``physics.contact`` computes them, evaluated once more in NumPy.
+"""
+
+import math
+
+import numpy as np
+
+from affine_joint_sim import portable_math as pm
+from affine_joint_sim.physics.contact_model import tangent
+from affine_joint_sim.physics.static_shapes import shape_separation
+
+__all__ = ['barrier_force', 'active_contacts']
+
+
+def barrier_force(d: float, d_hat: float, kappa: float) -> float:
+    """−db/dd [N] of the barrier b(D) = −κ (D − D̂)² ln(D/D̂), D = d², at 0 < d < d̂."""
+    big, big_hat = d * d, d_hat * d_hat
+    gap = big - big_hat
+    return 2.0 * kappa * d * (2.0 * gap * math.log(big / big_hat) + gap * gap / big)
+
+
+def _separation(host, x, g: int):
+    """(distance of the world point x to static thing g, before any radius; its normal)."""
+    planes = len(host.plane_offset)
+    if g < planes:
+        return pm.dot(host.plane_normal[g], x) - host.plane_offset[g], host.plane_normal[g]
+    s = g - planes
+    return shape_separation(host.shape_kind[s], host.shape_rotation[s], host.shape_center[s],
+                            host.shape_size[s], x)
+
+
+def _world(q_body, rest) -> np.ndarray:
+    return q_body[:3] + pm.matmul(q_body[3:].reshape(3, 3), rest)
+
+
+def active_contacts(host, q, q_n, friction_normal, body_names, static_names) -> list[dict]:
+    """The active contact pairs of one environment at states ``q`` (n_bodies, 12), the last
+    step having started at ``q_n`` with lagged normal forces ``friction_normal`` (pairs,) [N·s²].
+
+    Each is a dict: ``body`` (the moving body's name), ``other`` (the half-space's or fixed
+    body's name), ``point`` (the nearest point of the other's surface [m, world]),
+    ``normal`` (unit, from the other towards the body), ``distance`` [m], ``normal_force``
+    [N] and ``friction_force`` (3-vector [N, world], on the body).
+    """
+    things = len(host.plane_offset) + len(host.shape_kind)
+    dt2 = float(host.dt) ** 2
+    out = []
+    for i, (b, rest, radius) in enumerate(zip(host.point_body, host.point_rest,
+                                              host.point_radius)):
+        x = _world(q[b], rest)
+        for g in range(things):
+            pair = i * things + g
+            if not host.pair_on[pair]:
+                continue
+            centre_distance, normal = _separation(host, x, g)
+            d = centre_distance - radius
+            if not 0.0 < d < host.contact_d_hat:
+                continue
+            force = np.zeros(3)
+            if friction_normal[pair] > 0.0:
+                force = _friction(host, q, q_n, i, g, pair, friction_normal[pair] / dt2)
+            out.append({'body': body_names[b], 'other': static_names[g],
+                        'point': x - normal * centre_distance, 'normal': np.asarray(normal),
+                        'distance': float(d),
+                        'normal_force': barrier_force(d, host.contact_d_hat, host.contact_kappa),
+                        'friction_force': force})
+    return out
+
+
+def _friction(host, q, q_n, i: int, g: int, pair: int, lam: float) -> np.ndarray:
+    """The friction force [N, world] on point i against static thing g: −μ λ (f1(y)/y) u."""
+    b, rest = host.point_body[i], host.point_rest[i]
+    _, normal = _separation(host, _world(q_n[b], rest), g)
+    if host.point_radius[i] > 0.0:      # the material point that touches, as the kernel
+        rest = rest - host.point_radius[i] * np.linalg.solve(q_n[b, 3:].reshape(3, 3), normal)
+    start = _world(q_n[b], rest)
+    t1 = host.plane_tangent[g] if g < len(host.plane_offset) else tangent(normal)
+    t2 = pm.cross(normal, t1)
+    moved = _world(q[b], rest) - start
+    u1, u2 = pm.dot(t1, moved), pm.dot(t2, moved)
+    y = math.hypot(u1, u2)
+    eps = host.contact_eps_velocity * host.dt
+    f1_over_y = 1.0 / y if y >= eps else (2.0 * eps - y) / (eps * eps)
+    return -host.pair_friction[pair] * lam * f1_over_y * (u1 * t1 + u2 * t2)
