@@ -23,12 +23,15 @@ class Contact(StrictModel):
     ``kappa``: the barrier stiffness (libuipc's convention, energy κ (d² − d̂²)² ln(d²/d̂²));
     ``friction``: Coulomb μ of a pair unless a body or half-space gives its own;
     ``eps_velocity`` [m/s]: the slip speed below which friction acts as a stiff viscous law;
+    ``damping``: the ratio to critical of a viscous damping on each contact's approach speed
+    (1: a bounce dies out at once, as MuJoCo's default; 0: the undamped IPC barrier);
     ``self_collision``: bodies of one articulation touch each other (jointed pairs never)."""
 
     d_hat: PositiveFloat = 1.0e-3
     kappa: PositiveFloat = 1.0e9
     friction: NonNegative = 0.5
     eps_velocity: PositiveFloat = 1.0e-3
+    damping: NonNegative = 1.0
     self_collision: bool = False
 
 

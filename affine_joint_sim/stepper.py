@@ -53,7 +53,7 @@ _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_re
 # (State arrays, and the Scratch ones the contact report needs).
 _OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort'),
                   'contact_record': ('nearest_seen', 'most_contacts'),
-                  'contact_forces': ('q_n', 'friction_normal'),
+                  'contact_forces': ('q_n', 'friction_normal', 'normal_damping'),
                   'stats': ('stats_int', 'stats_float'), 'bodies': ('q', 'v'),
                   'coordinate': ('joint_coordinate',)}
 
@@ -458,9 +458,11 @@ class Stepper:
         if not self._host.has_contact:
             per_env = [[] for _ in range(self._envs)]
         else:
-            q, q_n, normal = (self._read(name) for name in ('q', 'q_n', 'friction_normal'))
-            per_env = [active_contacts(self._host, q[e], q_n[e], normal[e], self.body_names,
-                                       self._host.static_names) for e in range(self._envs)]
+            q, q_n, normal, damping = (self._read(name) for name in (
+                'q', 'q_n', 'friction_normal', 'normal_damping'))
+            per_env = [active_contacts(self._host, q[e], q_n[e], normal[e], damping[e],
+                                       self.body_names, self._host.static_names)
+                       for e in range(self._envs)]
         return per_env if self._batched else per_env[0]
 
     @property

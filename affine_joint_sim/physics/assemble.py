@@ -29,7 +29,7 @@ def build(t) -> SimpleNamespace:
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
     limit_penetration, add_contact = t.limit_penetration, t.add_contact
-    add_friction = t.add_friction
+    add_friction, add_damping = t.add_friction, t.add_damping
 
     @wp.func
     def add_gradients(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
@@ -141,6 +141,7 @@ def build(t) -> SimpleNamespace:
             # an active barrier's or friction's curvature changes fast: no last factors
             untrusted += add_contact(model, q, scratch, env, hessian)
             untrusted += add_friction(model, q, scratch, env, hessian)
+            add_damping(model, q, scratch, env, hessian)
         return untrusted
 
     return SimpleNamespace(assemble=assemble)

@@ -28,7 +28,7 @@ STEP_SLACK = 0.1     # η: a step along dq keeps this fraction of every shrinkin
 def build(t) -> SimpleNamespace:
     """Warp functions of contact for the types namespace ``t``."""
     vec3, vec12, scalar = t.vec3, t.vec12, t.scalar
-    zero, one, two, three, four = t.zero, t.one, t.two, t.three, t.four
+    zero, half, one, two, three, four = t.zero, t.half, t.one, t.two, t.three, t.four
     Model, Scratch = t.structs.Model, t.structs.Scratch
     world_point, jacobian_transpose, log = t.world_point, t.jacobian_transpose, t.log
     affine = t.affine
@@ -137,20 +137,84 @@ def build(t) -> SimpleNamespace:
         return -kappa * gap * gap * ln, two * d * b_big, four * big_d * b_big2 + two * b_big
 
     @wp.func
+    def contact_rest(model: Model, q_n: vec12, i: int, n: vec3):
+        """x̄_c: the rest position of the material point where point i touches (x̄ − r A_n⁻¹ n:
+        a sphere's or capsule's surface point, r below its centre; x̄ for a vertex)."""
+        rest = model.point_rest[i]
+        radius = model.point_radius[i]
+        if radius > zero:
+            rest = rest - radius * (wp.inverse(affine(q_n)) @ n)
+        return rest
+
+    @wp.func
+    def point_mass(model: Model, b: int, q_n: vec12, rest: vec3, n: vec3):
+        """m_eff [kg] of body b at rest point x̄ along the world normal n, as a rigid body:
+        1 / (1/m + (x̄ × n_b)ᵀ I⁻¹ (x̄ × n_b)), n_b = A_nᵀ n, I the body's principal moments."""
+        s = model.body_second_moment[b]
+        lever = wp.cross(rest, wp.transpose(affine(q_n)) @ n)
+        inverse = one / model.body_mass[b]
+        inverse += lever[0] * lever[0] / (s[1] + s[2]) + lever[1] * lever[1] / (s[0] + s[2])
+        inverse += lever[2] * lever[2] / (s[0] + s[1])
+        return one / inverse
+
+    @wp.func
     def lag_friction(model: Model, scratch: Scratch, env: int):
-        """The normal force dt² λ = −dt² db/dd of every pair closer than d̂ at q_n into
-        scratch.friction_normal (0 for the others): friction's weight for the step."""
+        """Per pair closer than d̂ at q_n, frozen for the step: the normal force
+        dt² λ = −dt² db/dd into scratch.friction_normal (friction's weight) and the contact
+        damping c·dt = 2ζ √(b''(d) m_eff) dt into scratch.normal_damping (0 for the others)."""
         things = statics(model)
         for i in range(model.point_body.shape[0]):
-            qb = scratch.q_n[env, model.point_body[i]]
+            b = model.point_body[i]
+            qb = scratch.q_n[env, b]
             for g in range(things):
                 force = zero
+                damping = zero
                 if model.pair_on[i * things + g] != 0:
                     d, n = distance(model, qb, i, g)
                     if d > zero and d < model.contact_d_hat:
-                        b, b1, b2 = barrier(model, d)
+                        e, b1, b2 = barrier(model, d)
                         force = -model.dt * model.dt * b1
+                        if model.contact_damping > zero:
+                            mass = point_mass(model, b, qb, contact_rest(model, qb, i, n), n)
+                            damping = (two * model.contact_damping
+                                       * wp.sqrt(wp.max(b2, zero) * mass) * model.dt)
                 scratch.friction_normal[env, i * things + g] = force
+                scratch.normal_damping[env, i * things + g] = damping
+
+    @wp.func
+    def damping_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
+                       env: int):
+        """Σ ½ c dt (d(q) − d(q_n))² over the pairs with lagged damping [J·s²]: a viscous
+        force −c ḋ on each contact's approach, ḋ ≈ (d − d_n)/dt."""
+        energy = zero
+        things = statics(model)
+        for i in range(model.point_body.shape[0]):
+            b = model.point_body[i]
+            for g in range(things):
+                weight = scratch.normal_damping[env, i * things + g]
+                if weight > zero:
+                    d, n = distance(model, q[env, b], i, g)
+                    d_n, n_n = distance(model, scratch.q_n[env, b], i, g)
+                    energy += half * weight * (d - d_n) * (d - d_n)
+        return energy
+
+    @wp.func
+    def add_damping(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                    hessian: int):
+        """Contact damping's gradient c dt (d − d_n) w into scratch.rhs and, with ``hessian``,
+        c dt w wᵀ (w = J(x̄)ᵀ n; a shape's curvature left out, as for the barrier)."""
+        things = statics(model)
+        for i in range(model.point_body.shape[0]):
+            b = model.point_body[i]
+            for g in range(things):
+                weight = scratch.normal_damping[env, i * things + g]
+                if weight > zero:
+                    d, n = distance(model, q[env, b], i, g)
+                    d_n, n_n = distance(model, scratch.q_n[env, b], i, g)
+                    w = jacobian_transpose(model.point_rest[i], n)
+                    scratch.rhs[env, b] -= weight * (d - d_n) * w
+                    if hessian != 0:
+                        scratch.hessian[env, b] += wp.outer(weight * w, w)
 
     @wp.func
     def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, i: int,
@@ -162,10 +226,7 @@ def build(t) -> SimpleNamespace:
         its gradients J(x̄_c)ᵀ t."""
         b = model.point_body[i]
         d, n = distance(model, scratch.q_n[env, b], i, g)
-        rest = model.point_rest[i]
-        radius = model.point_radius[i]
-        if radius > zero:       # slip where the sphere touches, r below its centre at q_n
-            rest = rest - radius * (wp.inverse(affine(scratch.q_n[env, b])) @ n)
+        rest = contact_rest(model, scratch.q_n[env, b], i, n)
         moved = world_point(q[env, b], rest) - world_point(scratch.q_n[env, b], rest)
         t1 = tangent_of(n)
         if g < model.plane_offset.shape[0]:
@@ -321,6 +382,7 @@ def build(t) -> SimpleNamespace:
 
     return SimpleNamespace(contact_distance=distance, barrier=barrier,
                            lag_friction=lag_friction, friction_energy=friction_energy,
-                           add_friction=add_friction,
+                           add_friction=add_friction, damping_energy=damping_energy,
+                           add_damping=add_damping,
                            contact_energy=contact_energy, add_contact=add_contact,
                            step_bound=step_bound, touching=touching)

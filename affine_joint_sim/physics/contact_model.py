@@ -149,6 +149,7 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
     static_mu += [body_mu[f] for f in owners]
     arrays = dict(has_contact=int(on), contact_d_hat=settings.d_hat,
                   contact_kappa=settings.kappa, contact_eps_velocity=settings.eps_velocity,
+                  contact_damping=settings.damping,
                   plane_tangent=np.array([tangent(n) for n in normals]).reshape(-1, 3),
                   pair_friction=np.array([combined_friction(body_mu[b], mu)
                                           for b in bodies for mu in static_mu],

@@ -2,10 +2,12 @@
 README.md#contact).
 
 A pair is active when its distance is below d̂. Its normal force is the barrier's push
-−db/dd [N] at the state's distance; its friction force the lagged smoothed Coulomb friction
-of the last step: μ λ (f1(|u|)/|u|) against the slip u since the step's start, λ the normal
-force frozen at that start (``scratch.friction_normal`` / dt²). These are the forces the step
-balanced, as ``physics.contact`` computes them, evaluated once more in NumPy.
+−db/dd [N] at the state's distance, plus the contact damping's c (d_n − d)/dt with the c frozen
+at the step's start (``scratch.normal_damping`` / dt); its friction force the lagged smoothed
+Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against the slip u since the step's
+start, λ the normal force frozen at that start (``scratch.friction_normal`` / dt²). These are
+the forces the step balanced, as ``physics.contact`` computes them, evaluated once more in
+NumPy.
 """
 
 import math
@@ -40,9 +42,11 @@ def _world(q_body, rest) -> np.ndarray:
     return q_body[:3] + pm.matmul(q_body[3:].reshape(3, 3), rest)
 
 
-def active_contacts(host, q, q_n, friction_normal, body_names, static_names) -> list[dict]:
+def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
+                    static_names) -> list[dict]:
     """The active contact pairs of one environment at states ``q`` (n_bodies, 12), the last
-    step having started at ``q_n`` with lagged normal forces ``friction_normal`` (pairs,) [N·s²].
+    step having started at ``q_n`` with lagged normal forces ``friction_normal`` (pairs,)
+    [N·s²] and damping ``normal_damping`` (pairs,) [kg].
 
     Each is a dict: ``body`` (the moving body's name), ``other`` (the half-space's or fixed
     body's name), ``point`` (the nearest point of the other's surface [m, world]),
@@ -66,10 +70,13 @@ def active_contacts(host, q, q_n, friction_normal, body_names, static_names) -> 
             force = np.zeros(3)
             if friction_normal[pair] > 0.0:
                 force = _friction(host, q, q_n, i, g, pair, friction_normal[pair] / dt2)
+            push = barrier_force(d, host.contact_d_hat, host.contact_kappa)
+            if normal_damping[pair] > 0.0:
+                d_n = _separation(host, _world(q_n[b], rest), g)[0] - radius
+                push += normal_damping[pair] * (d_n - d) / dt2
             out.append({'body': body_names[b], 'other': static_names[g],
                         'point': x - normal * centre_distance, 'normal': np.asarray(normal),
-                        'distance': float(d),
-                        'normal_force': barrier_force(d, host.contact_d_hat, host.contact_kappa),
+                        'distance': float(d), 'normal_force': push,
                         'friction_force': force})
     return out
 

@@ -131,6 +131,7 @@ FIELDS = _fields('model', [
      'articulation without self_collision, or of a body jointed to it)'),
     ('contact_eps_velocity', 'scalar', (), 'm/s', 'slip speed ε_v below which friction is '
      'viscous'),
+    ('contact_damping', 'scalar', (), '-', 'ζ: contact damping as a ratio to critical'),
 ]) + _fields('state', [
     ('q', 'vec12', EB, 'm, -', 'ABD state [p, a1, a2, a3]'),
     ('v', 'vec12', EB, 'm/s, 1/s', 'ABD velocity q̇'),
@@ -175,6 +176,8 @@ FIELDS = _fields('model', [
      '(joint_raw_coordinate), for the commit'),
     ('friction_normal', 'scalar', ('env', 'pair'), 'N·s²', 'lagged normal force dt²·λ of each '
      '(point, static thing) pair at the start of the step (0: no friction this step)'),
+    ('normal_damping', 'scalar', ('env', 'pair'), 'kg', 'lagged c·dt of each pair: its damping '
+     'c = 2ζ √(k m) [N·s/m] at the start of the step (0: none this step)'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])

@@ -23,6 +23,7 @@ def build(t) -> SimpleNamespace:
     joint_energy, joint_coordinate, coordinate_terms = (t.joint_energy, t.joint_coordinate,
                                                         t.coordinate_terms)
     contact_energy, friction_energy = t.contact_energy, t.friction_energy
+    damping_energy = t.damping_energy
 
     @wp.func
     def incremental_potential(model: Model, state: State, control: Control,
@@ -46,6 +47,7 @@ def build(t) -> SimpleNamespace:
                     energy += e
         if model.has_contact != 0:
             energy += contact_energy(model, q, env) + friction_energy(model, q, scratch, env)
+            energy += damping_energy(model, q, scratch, env)
         return energy
 
     return SimpleNamespace(incremental_potential=incremental_potential)
