@@ -75,7 +75,7 @@ def test_a_drop_never_penetrates_and_never_outruns_free_fall():
     assert fastest <= math.sqrt(2.0 * G * drop)
 
 
-def test_a_tilted_half_space_holds_a_frictionless_box_sliding_down_it():
+def test_a_tilted_half_space_holds_a_box_creeping_down_it():
     tilt = math.radians(20.0)
     normal = [math.sin(tilt), 0.0, math.cos(tilt)]
     scene = _box_scene(0.2, ground={'point': [0.0, 0.0, 0.0], 'normal': normal},
@@ -85,7 +85,7 @@ def test_a_tilted_half_space_holds_a_frictionless_box_sliding_down_it():
         sim.step()
         assert sim.stats['min_distance'] > 0.0
     assert sim.stats['contacts'] == 4
-    # no friction yet: it slides down the slope (its normal's x side) at g sin(tilt)
+    # μ 0.5 > tan 20°: it creeps down the slope (its normal's x side), never into it
     velocity = sim.body_qdot[0][:3]
     along = velocity @ np.array([math.cos(tilt), 0.0, -math.sin(tilt)])
     assert along > 0.0 and abs(velocity @ np.array(normal)) < 1e-3

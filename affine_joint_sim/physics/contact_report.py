@@ -18,7 +18,13 @@ from affine_joint_sim import portable_math as pm
 from affine_joint_sim.physics.contact_model import tangent
 from affine_joint_sim.physics.static_shapes import shape_separation
 
-__all__ = ['barrier_force', 'active_contacts']
+__all__ = ['barrier_energy', 'barrier_force', 'active_contacts']
+
+
+def barrier_energy(d: float, d_hat: float, kappa: float) -> float:
+    """b [J] of the barrier b(D) = −κ (D − D̂)² ln(D/D̂), D = d², at 0 < d < d̂."""
+    big, big_hat = d * d, d_hat * d_hat
+    return -kappa * (big - big_hat) ** 2 * math.log(big / big_hat)
 
 
 def barrier_force(d: float, d_hat: float, kappa: float) -> float:

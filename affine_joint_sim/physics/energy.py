@@ -3,13 +3,15 @@
 The incremental potential (docs/physics.md#incremental-potential) is ½‖q − q̃‖²_M + dt²·V(q),
 so the physical potential V is the orthogonality energy κ v̄ ‖AAᵀ − I‖² plus each joint's
 constraint spring and limit penalty divided by dt² (those terms carry no dt² there). With
-gravity's potential and the affine kinetic energy ½ q̇ᵀ M q̇ this is the energy that implicit
-BDF steps dissipate (docs/physics.md#mechanical-energy). NumPy, host side, world frame, SI
-units.
+gravity's potential, the affine kinetic energy ½ q̇ᵀ M q̇ and, with contact, the barrier's
+energy b(d) of every pair closer than d̂ this is the energy that implicit BDF steps dissipate
+(docs/physics.md#mechanical-energy). NumPy, host side, world frame, SI units.
 """
 
 import numpy as np
 
+from affine_joint_sim.physics.contact_model import world_distances
+from affine_joint_sim.physics.contact_report import barrier_energy
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.model import HostModel, residual_jacobians
 
@@ -18,7 +20,8 @@ __all__ = ['mechanical_energy']
 
 def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,
                       coordinates: np.ndarray) -> np.ndarray:
-    """Kinetic + gravity + orthogonality + joint-spring + limit energy of the free bodies [J].
+    """Kinetic + gravity + orthogonality + joint-spring + limit (+ contact barrier) energy of
+    the free bodies [J].
 
     Args:
         model: the scene's host model.
@@ -49,7 +52,21 @@ def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,
         residuals += functions.nonlinear_residuals(point, direction, qp, qc)
         spring = 0.5 * model.joint_stiffness[k] * sum(np.sum(r ** 2, axis=-1) for r in residuals)
         joints += (spring + _limit_energy(model, k, coordinates[..., k])) / model.dt ** 2
-    return bodies + joints
+    return bodies + joints + _contact_energy(model, q)
+
+
+def _contact_energy(model: HostModel, q: np.ndarray) -> np.ndarray:
+    """Σ b(d) [J] over the contact pairs closer than d̂, per leading index of q."""
+    if not model.has_contact:
+        return np.zeros(q.shape[:-2])
+    states = q.reshape(-1, *q.shape[-2:])
+    out = np.zeros(len(states))
+    for e, state in enumerate(states):
+        distances = world_distances(state, vars(model)).reshape(-1)
+        distances[model.pair_on == 0] = np.inf
+        out[e] = sum(barrier_energy(d, model.contact_d_hat, model.contact_kappa)
+                     for d in distances if 0.0 < d < model.contact_d_hat)
+    return out.reshape(q.shape[:-2])
 
 
 def _limit_energy(model: HostModel, k: int, x: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ __all__ = ['Stages']
 _PROBES = {}
 
 
-ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START, MOVED = range(5)
+ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START, MOVED, STEP_BOUND = range(6)
 
 
 def _probe_kernel(t):
@@ -33,7 +33,7 @@ def _probe_kernel(t):
                                                    t.solve_tree)
     joint_raw_coordinate, joint_coordinate_gradients = (t.joint_raw_coordinate,
                                                         t.joint_coordinate_gradients)
-    warm_start, moved, full_step = t.warm_start, t.moved, t.full_step
+    warm_start, moved, full_step, step_bound = t.warm_start, t.moved, t.full_step, t.step_bound
     one, salt = t.one, t.source_salt
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
@@ -57,6 +57,10 @@ def _probe_kernel(t):
         elif which == WARM_START:
             for b in range(q.shape[1]):
                 q_out[b] = warm_start(q[0, b], scratch.q_n[0, b])
+        elif which == STEP_BOUND:
+            for b in range(q.shape[1]):
+                scratch.q_start[0, b] = q[0, b]
+            energy_out[0] = step_bound(model, scratch, 0)
         else:
             for b in range(q.shape[1]):
                 scratch.q_start[0, b] = q[0, b]
@@ -154,6 +158,14 @@ class Stages:
         self.scratch.dq.assign(np.asarray(dq)[None])
         self._launch(MOVED)
         return self._outputs[4].numpy().copy(), float(self._outputs[0].numpy()[0])
+
+    def step_bound(self, q, dq) -> float:
+        """Contact's step bound: the largest α ≤ 1 keeping every contact point at least η of
+        its gap along q + α dq."""
+        self._q.assign(np.asarray(q)[None])
+        self.scratch.dq.assign(np.asarray(dq)[None])
+        self._launch(STEP_BOUND)
+        return float(self._outputs[0].numpy()[0])
 
     def warm_start(self, q_tilde, q_n):
         """The Newton start of every body from the prediction q_tilde and the last state q_n."""
