@@ -58,8 +58,9 @@ bags: venv
 replay: venv
 	$(VENV)/bin/affine-joint-sim replay $(or $(BAG),bags/demo_pd)
 
-# The README's pictures, drawn from bags recorded here (results/gallery/): the make-run demo
-# and the URDF arm with its gripper under the demo PD controller.
+# The README's pictures, drawn from bags recorded here (results/gallery/): the make-run demo,
+# the URDF arm with its gripper under the demo PD controller, the quadruped standing on the
+# ground under it, and a box sliding down a ramp onto the ground.
 GALLERY_RENDER := --fps 12 --width 640 --height 360
 gallery: venv
 	rm -rf results/gallery && mkdir -p results/gallery docs
@@ -70,6 +71,12 @@ gallery: venv
 	  --record results/gallery/arm6
 	$(VENV)/bin/affine-joint-sim render results/gallery/arm6 --out docs/arm6.gif $(GALLERY_RENDER) \
 	  --view=-50,25
+	$(VENV)/bin/affine-joint-sim demo --scene quadruped --duration 1.5 --record results/gallery/quadruped
+	$(VENV)/bin/affine-joint-sim render results/gallery/quadruped --out docs/quadruped.gif \
+	  $(GALLERY_RENDER) --view=-35,15
+	$(VENV)/bin/affine-joint-sim run --scene ramp --mode fast --duration 2 --record results/gallery/ramp
+	$(VENV)/bin/affine-joint-sim render results/gallery/ramp --out docs/ramp.gif $(GALLERY_RENDER) \
+	  --view=-80,15
 
 # The linter (rules in ruff.toml) first: it takes well under a second.
 lint: venv

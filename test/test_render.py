@@ -140,3 +140,32 @@ def test_a_window_is_read_alone_from_a_bag_with_poses():
     assert whole.state_times.min() == 0.0 and whole.state_times.max() >= 2.49
     assert window.state_times.min() >= 1.0 - 1e-9 and window.state_times.max() <= 2.4 + 1e-9
     assert window.pose_times.min() >= 1.0 - 1e-9 and window.span == whole.span
+
+
+def test_the_ground_is_a_checkerboard_on_its_plane_and_a_jointless_scene_fills_the_picture(
+        tmp_path):
+    from affine_joint_sim.scene import Scene
+    from affine_joint_sim.viz.render import GROUND_TILES, ground_tiles
+
+    tilted = Scene.from_dict({'bodies': [{'name': 'box', 'mass': 1.0,
+                                          'shape': {'box': [0.1, 0.1, 0.1]}}],
+                              'ground': [{'height': -0.5},
+                                         {'point': [0, 0, 1], 'normal': [0.3, 0.0, 1.0]}]})
+    tiles = ground_tiles(tilted, np.array([0.2, 0.1, 0.3]), 0.5)
+    assert len(tiles) == 2 * GROUND_TILES ** 2
+    flat = np.array([corners for corners, _ in tiles[:GROUND_TILES ** 2]])
+    assert np.allclose(flat[..., 2], -0.5)
+    assert np.allclose(flat[..., 0].min(), -0.3) and np.allclose(flat[..., 0].max(), 0.7)
+    normal = np.array([0.3, 0.0, 1.0]) / np.linalg.norm([0.3, 0.0, 1.0])
+    slope = np.array([corners for corners, _ in tiles[GROUND_TILES ** 2:]])
+    assert np.allclose((slope - [0.0, 0.0, 1.0]) @ normal, 0.0)
+    bag, out = tmp_path / 'ramp', tmp_path / 'ramp.png'
+    assert cli('run', '--scene', 'ramp', '--mode', 'fast', '--duration', 0.2,
+               '--record', bag).returncode == 0
+    done = cli('render', bag, '--out', out, '--width', 320, '--height', 200)
+    assert done.returncode == 0, done.stderr
+    with Image.open(out) as png:
+        view = np.asarray(png.convert('RGB'), dtype=int)
+    grey = (view.max(axis=2) - view.min(axis=2) < 8) & (view.min(axis=2) > 120) \
+        & (view.max(axis=2) < 225)                              # the tiles' greys
+    assert grey[:, 240:].sum() > 100          # no joint plots beside: the view spans it all

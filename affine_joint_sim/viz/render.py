@@ -5,7 +5,9 @@ bodies' poses through the scene's frames); a bag recorded without them is re-sim
 its scene and commands (``ros.replay``). Shapes are shaded solids (a mesh whose file trimesh
 can load is drawn with at most ``MESH_FACES`` faces, decimated by vertex clustering when it has
 more); a side panel plots the joint coordinates and efforts over the frames' window with a
-cursor at the frame's time. A bag with body_poses is read only over that window. A ``.gif``
+cursor at the frame's time. The ground's half-spaces are drawn as a checkerboard of tiles
+(``GROUND_TILES`` a side) across the view, so sliding shows. A bag with body_poses is read
+only over that window. A ``.gif``
 (Pillow) or ``.mp4`` (imageio with ffmpeg) holds one frame every 1/fps s of bag time between
 ``--from`` and ``--to``; a ``.png`` is the frame at ``--from`` (default: the end). Plain
 matplotlib, no display.
@@ -22,9 +24,10 @@ from affine_joint_sim.progress import Progress
 from affine_joint_sim.rotations import quaternion_matrix
 from affine_joint_sim.viz.drawables import drawables
 
-__all__ = ['RenderError', 'Track', 'load_track', 'render', 'frame_times']
+__all__ = ['RenderError', 'Track', 'load_track', 'render', 'frame_times', 'ground_tiles']
 
 MESH_FACES = 400          # the most faces a mesh is drawn with (a frame's cost grows with them)
+GROUND_TILES = 10         # tiles a side of the ground drawn under the view
 _POSE_MARGIN = 1.0        # s before --from read too: the pose in force at the first frame
 _LIGHT = np.array([0.4, -0.5, 0.77])
 
@@ -232,6 +235,41 @@ def _polygons(scene) -> list:
     return out
 
 
+def _ground_planes(scene):
+    """(unit normal, a point on it, t₁, t₂) of each ground half-space."""
+    from affine_joint_sim.physics.contact_model import tangent
+
+    for plane in scene.ground or []:
+        if plane.height is not None:
+            normal, point = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, plane.height])
+        else:
+            normal = np.asarray(plane.normal, float) / np.linalg.norm(plane.normal)
+            point = np.asarray(plane.point, float)
+        t1 = tangent(normal)
+        yield normal, point, t1, np.cross(normal, t1)
+
+
+def _under(centre, normal, point) -> np.ndarray:
+    """``centre`` projected onto the plane through ``point`` with unit ``normal``."""
+    return centre - ((centre - point) @ normal) * normal
+
+
+def ground_tiles(scene, centre, half: float) -> list:
+    """(corners (4, 3) [m, world], RGB) of a checkerboard on each of the scene's ground
+    half-spaces, 2·half [m] a side, centred under ``centre``."""
+    out = []
+    side = 2.0 * half / GROUND_TILES
+    for normal, point, t1, t2 in _ground_planes(scene):
+        origin = _under(centre, normal, point)
+        for i in range(GROUND_TILES):
+            for j in range(GROUND_TILES):
+                a = origin + (i * side - half) * t1 + (j * side - half) * t2
+                corners = np.array([a, a + side * t1, a + side * (t1 + t2), a + side * t2])
+                shade = 0.82 if (i + j) % 2 else 0.7
+                out.append((corners, np.array([shade, shade, shade])))
+    return out
+
+
 # ---- drawing ----------------------------------------------------------------------------------
 
 class _Figure:
@@ -248,13 +286,20 @@ class _Figure:
         self.shapes = _polygons(track.scene)
         dpi = 100
         self.fig = plt.figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi)
+        self.cursors = []
+        if not track.joint_names:           # nothing to plot beside: the view takes it all
+            self.ax = self.fig.add_subplot(projection='3d')
+            self.ax.view_init(elev=view[1], azim=view[0])
+            self._limits()
+            self.title = self.fig.suptitle('', fontsize=11)
+            self.collections = []
+            return
         grid = self.fig.add_gridspec(2, 2, width_ratios=(1.6, 1.0), left=0.0, right=0.97,
                                      top=0.93, bottom=0.1, wspace=0.25, hspace=0.35)
         self.ax = self.fig.add_subplot(grid[:, 0], projection='3d')
         self.ax.view_init(elev=view[1], azim=view[0])
         self._limits()
         self.title = self.fig.suptitle('', x=0.3, fontsize=11)
-        self.cursors = []
         shown = (track.state_times >= window[0] - 1e-9) & (track.state_times <= window[1] + 1e-9)
         for row, (values, label) in enumerate(((track.positions, 'position [rad | m]'),
                                                (track.efforts, 'effort [N·m | N]'))):
@@ -279,8 +324,12 @@ class _Figure:
         reach = max((np.abs(p).max() for _, _, polys, _ in self.shapes for p in polys),
                     default=0.1)
         size = (centres.max(axis=1) - centres.min(axis=1)).max() + 2 * reach
-        low = centres.reshape(-1, 3).min(axis=0) - reach
-        high = centres.reshape(-1, 3).max(axis=0) + reach
+        mean = centres.reshape(-1, 3).mean(axis=0)
+        points = np.array([*centres.reshape(-1, 3),           # and the ground under them
+                           *(_under(mean, normal, point)
+                             for normal, point, _, _ in _ground_planes(self.track.scene))])
+        low = points.min(axis=0) - reach
+        high = points.max(axis=0) + reach
         self.half = max(size / 2, 0.1)
         self.follow = (high - low).max() > 2 * size
         if not self.follow:
@@ -305,6 +354,11 @@ class _Figure:
             collection.remove()
         self.collections = []
         faces, colors = [], []
+        low = [getattr(self.ax, f'get_{axis}lim')()[0] for axis in 'xyz']
+        for corners, rgb in ground_tiles(self.track.scene, np.array(low) + self.half,
+                                         self.half):
+            faces.append(corners)
+            colors.append(rgb)
         for body, local, polygons, rgb in self.shapes:
             world = self.track.bodies[k, body] @ local
             for polygon in polygons:
