@@ -28,6 +28,31 @@ def test_markers_and_poses_stream_and_reset_clears_them(sim, ros_node, wait_for)
                                 for m in markers.since(count)))
 
 
+def test_contact_forces_are_arrows_in_markers(sim, ros_node, wait_for, tmp_path):
+    """A 1 kg box at rest on its four corners: four arrows, each m g / 4 up at ARROW_SCALE."""
+    from affine_joint_sim.ros.viz import ARROW_SCALE
+
+    scene = tmp_path / 'resting.yaml'
+    scene.write_text('ground: {height: 0.0}\ncontact: {}\nbodies:\n- name: box\n'
+                     '  shape: {box: [0.1, 0.1, 0.1]}\n  mass: 1.0\n'
+                     '  position: [0.0, 0.0, 0.0507]\n  collision: shape\n')
+    child = sim('--scene', scene, '--mode', 'realtime', '--real-time-factor', '2.0')
+    markers = Inbox(ros_node, 'markers')
+
+    def arrows():
+        shown = [m for message in markers.messages for m in message.markers
+                 if m.ns == 'contact_forces']
+        return [m for m in shown[-4:] if m.action == Marker.ADD and stamp_ns(m) >= 5e8]
+
+    assert wait_for(lambda: len(arrows()) == 4)
+    for arrow in arrows():
+        assert arrow.type == Marker.ARROW and arrow.header.frame_id == 'world'
+        start, tip = arrow.points
+        assert abs(start.z) < 1e-9                             # on the ground
+        assert abs(tip.z - ARROW_SCALE * 9.81 / 4) < 1e-3 and abs(tip.x - start.x) < 1e-6
+    assert 'Traceback' not in child.stop()
+
+
 def test_viz_rate_0_publishes_no_views(sim, ros_node, wait_for):
     child = sim('--viz-rate', '0')
     assert ros_node.count_publishers('/joint_states') > 0

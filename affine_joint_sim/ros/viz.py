@@ -2,7 +2,10 @@
 shape of every body) and ``body_poses`` (PoseArray: every body, or every link frame of a URDF
 robot), both in ``frame_id`` and stamped with sim time, at ``viz_rate`` Hz of sim time; a
 DELETEALL on reset. Both messages are serialized once and then patched in place
-(``ros.patched``); the same bytes are published and recorded.
+(``ros.patched``); the same bytes are published and recorded. In a scene with contact a
+second MarkerArray on ``markers`` follows each one: an arrow per active contact, its force
+(normal and friction) at ``ARROW_SCALE`` m/N from the touching point (namespace
+``contact_forces``), and a DELETE for each arrow of the last one that is gone.
 """
 
 import math
@@ -11,7 +14,9 @@ from affine_joint_sim.poses import LinkFrames
 from affine_joint_sim.ros.patched import PatchedMessage
 from affine_joint_sim.viz.drawables import drawables
 
-__all__ = ['VizMessages', 'VizSchedule', 'VizPublisher']
+__all__ = ['VizMessages', 'VizSchedule', 'VizPublisher', 'ContactArrows', 'ARROW_SCALE']
+
+ARROW_SCALE = 0.01        # m/N: a contact force's arrow length (a 1 kg box's 2.5 N corner: 2.5 cm)
 
 _MARKER_TYPES = {'box': 'CUBE', 'cylinder': 'CYLINDER', 'sphere': 'SPHERE',
                  'mesh': 'MESH_RESOURCE'}
@@ -85,6 +90,47 @@ class VizMessages:
                 self.poses.update(values[self._count:], stamp_ns))
 
 
+class ContactArrows:
+    """The contact forces of a stepper's environment 0 as ARROW markers (``sim.contacts``):
+    from the touching point along the force on the body, ``ARROW_SCALE`` m/N, red."""
+
+    NAMESPACE = 'contact_forces'
+
+    def __init__(self, sim, frame_id: str):
+        self._sim, self._frame_id, self._shown = sim, frame_id, 0
+
+    def message(self, stamp_ns: int):
+        """The MarkerArray of the current contacts, stamped ``stamp_ns`` [ns of sim time]."""
+        from geometry_msgs.msg import Point
+        from visualization_msgs.msg import Marker, MarkerArray
+
+        contacts = self._sim.contacts
+        markers = []
+        for k in range(max(len(contacts), self._shown)):
+            marker = Marker(ns=self.NAMESPACE, id=k, type=Marker.ARROW)
+            marker.header.frame_id = self._frame_id
+            marker.header.stamp.sec, marker.header.stamp.nanosec = divmod(stamp_ns, 10 ** 9)
+            if k < len(contacts):
+                c = contacts[k]
+                tip = c['point'] + ARROW_SCALE * (c['normal_force'] * c['normal']
+                                                  + c['friction_force'])
+                marker.action = Marker.ADD
+                marker.points = [Point(x=float(a), y=float(b), z=float(z))
+                                 for a, b, z in (c['point'], tip)]
+                marker.scale.x, marker.scale.y = 0.004, 0.008     # m: shaft, head diameters
+                marker.color.r, marker.color.a = 1.0, 1.0
+                marker.pose.orientation.w = 1.0
+            else:
+                marker.action = Marker.DELETE
+            markers.append(marker)
+        self._shown = len(contacts)
+        return MarkerArray(markers=markers)
+
+    def reset(self) -> None:
+        """The viewers were cleared (DELETEALL): no arrow is shown."""
+        self._shown = 0
+
+
 def _pose_fields(poses) -> list:
     return [(obj, attr) for pose in poses for obj, attr in (
         (pose.position, 'x'), (pose.position, 'y'), (pose.position, 'z'),
@@ -116,6 +162,8 @@ class VizPublisher:
         if rate <= 0.0:
             return
         self.messages = VizMessages(sim, frame_id)
+        self.arrows = ContactArrows(sim, frame_id) if sim.scene.contact is not None \
+            or sim.scene.ground is not None else None
         self.publishers = {key: publisher(key) for key in self.KEYS}
 
     def publish(self, sim_time_ns: int, t_ns: int) -> None:
@@ -127,6 +175,8 @@ class VizPublisher:
             return
         markers, poses = self.messages.update(sim_time_ns)
         self._publish(self.publishers['markers'], markers, t_ns)
+        if self.arrows is not None:
+            self._publish(self.publishers['markers'], self.arrows.message(sim_time_ns), t_ns)
         self._publish(self.publishers['body_poses'], poses, t_ns)
 
     def reset(self, t_ns: int) -> None:
@@ -134,3 +184,5 @@ class VizPublisher:
         self.schedule.reset()
         if self.publishers:
             self._publish(self.publishers['markers'], self.messages.delete_all, t_ns)
+            if self.arrows is not None:
+                self.arrows.reset()
