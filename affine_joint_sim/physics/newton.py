@@ -237,6 +237,15 @@ def build(t) -> SimpleNamespace:
         return trial, halvings, accepted
 
     @wp.func
+    def resting(model: Model, scratch: Scratch, env: int):
+        """Whether a pair was closer than d̂ at q_n (its lagged normal force is positive)."""
+        found = int(0)
+        for pair in range(scratch.friction_normal.shape[1]):
+            if scratch.friction_normal[env, pair] > zero:
+                found = 1
+        return found != 0
+
+    @wp.func
     def reachable(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
         """Whether Newton may start from the prediction q: it touches nothing and, with static
         shapes (which, unlike a half-space, a point can pass), the straight path to it from
@@ -272,10 +281,11 @@ def build(t) -> SimpleNamespace:
             from_n = int(0)
             if not reachable(model, q, scratch, env):
                 from_n = 1
-            elif incremental_potential(model, state, control, scratch.q_n, scratch, env,
-                                       kinetic_scale, bdf2) < incremental_potential(
-                    model, state, control, q, scratch, env, kinetic_scale, bdf2):
-                from_n = 1
+            elif resting(model, scratch, env):
+                if incremental_potential(model, state, control, scratch.q_n, scratch, env,
+                                         kinetic_scale, bdf2) < incremental_potential(
+                        model, state, control, q, scratch, env, kinetic_scale, bdf2):
+                    from_n = 1
             if from_n != 0:
                 for k in range(n_free):
                     b = model.elim_order[k]
@@ -333,4 +343,5 @@ def build(t) -> SimpleNamespace:
                            update_test=update_test, extent=extent,
                            rotation_of=rotation_of, rates=rates, moved=moved,
                            full_step=full_step, move=move, reachable=reachable,
+                           resting=resting,
                            line_search=line_search, newton=newton)
