@@ -22,7 +22,7 @@ from affine_joint_sim.schema_base import (Number, OneOf, PositiveFloat, StrictMo
 
 __all__ = ['Scene', 'SceneSettings', 'SceneError', 'StrictModel', 'Body', 'Joint', 'Limit',
            'Drive', 'Shape', 'Solver', 'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh',
-           'topic_token', 'validation_report']
+           'Sensor', 'SENSOR_TYPES', 'topic_token', 'validation_report']
 
 # Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
 # names use topic_token(name).
@@ -136,6 +136,20 @@ class Frame(StrictModel):
     body: str
     position: Vec3 = (0.0, 0.0, 0.0)
     orientation: Orientation | None = None
+
+
+SENSOR_TYPES = ('imu', 'contact')
+
+
+class Sensor(StrictModel):
+    """A sensor (README.md#sensors; values: ``affine_joint_sim.sensors``): ``name`` (its
+    topic ``sensors/<name>``: a ROS topic token), ``type`` (``imu`` | ``contact``) and
+    ``body``: a frame of the scene's ``frames`` (a URDF link, welded ones included: the sensor
+    sits at the link frame) or else a body (the sensor sits at the body frame)."""
+
+    name: Name
+    type: Literal[SENSOR_TYPES]
+    body: str
 
 
 class Mesh(StrictModel):
@@ -306,6 +320,7 @@ class Scene(SceneSettings):
     frames: list[Frame] = []
     # what viewers draw; empty: every body's shape (a URDF scene lists its links' visuals)
     visuals: list[Visual] = []
+    sensors: list[Sensor] = []          # README.md#sensors
     _robot_description: str | None = PrivateAttr(default=None)
 
     @property
@@ -328,7 +343,7 @@ class Scene(SceneSettings):
         """A URDF robot (README.md#robots-from-urdf), with the overrides of a scene YAML's
         ``urdf:`` entry (``name``, ``dt``, ``gravity``, ``solver``, ``fixed_base``,
         ``merge_fixed``, ``initial_positions``, ``package_paths``, ``joints``, ``base``,
-        ``contact``, ``ground``)."""
+        ``contact``, ``ground``, ``sensors``: their ``body`` a link name)."""
         return cls._from_urdf(Path(path), overrides, source=str(path))
 
     @classmethod
@@ -437,8 +452,25 @@ class Scene(SceneSettings):
                 if item.body not in body_names:
                     problems.append((f'{section}[{i}].body', f'unknown body {item.body!r}; '
                                      f'valid: {valid}'))
+        problems += self._sensor_problems()
         if not problems:
             problems += self._closed_loops()
+        return problems
+
+    def _sensor_problems(self) -> list[tuple[str, str]]:
+        """Sensors: unique names that are ROS topic tokens, on a known frame or body."""
+        problems = _duplicates('sensors', [s.name for s in self.sensors])
+        places = list(dict.fromkeys([f.name for f in self.frames] + [b.name for b in self.bodies]))
+        for i, sensor in enumerate(self.sensors):
+            token = topic_token(sensor.name)
+            if token != sensor.name:
+                problems.append((f'sensors[{i}].name', f'{sensor.name!r} is not a ROS topic token '
+                                 '(letters, digits and single underscores, not starting with a '
+                                 f'digit or ending with an underscore; e.g. {token!r})'))
+            if sensor.body not in places:
+                what = 'link or body' if self.frames else 'body'
+                problems.append((f'sensors[{i}].body', f'unknown {what} {sensor.body!r}; valid: '
+                                 f'{", ".join(places)}'))
         return problems
 
     def articulations(self) -> tuple[list[int], set]:

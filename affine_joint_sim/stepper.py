@@ -31,6 +31,7 @@ from affine_joint_sim.physics.model import build_model, largest_step_efforts
 from affine_joint_sim.physics.newton import HALVINGS
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
 from affine_joint_sim.scene import Scene
+from affine_joint_sim.sensors import SensorSet
 from affine_joint_sim.sim_warnings import SimulationWarning
 
 __all__ = ['Stepper', 'SimulationWarning']
@@ -55,7 +56,7 @@ _OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort')
                   'contact_record': ('nearest_seen', 'most_contacts'),
                   'contact_forces': ('q_n', 'friction_normal', 'normal_damping'),
                   'stats': ('stats_int', 'stats_float'), 'bodies': ('q', 'v'),
-                  'coordinate': ('joint_coordinate',)}
+                  'coordinate': ('joint_coordinate',), 'history': ('v_prev',)}
 
 
 def _chunks(envs: int, threads: int | None) -> list[tuple[int, int]]:
@@ -115,6 +116,8 @@ class Stepper:
         self._commanded = np.array([k for k, j in enumerate(scene.joints)
                                     if joint_kind(j.type).command is not None], dtype=np.intp)
         self._links = LinkFrames(scene)
+        # the scene's sensors (README.md#sensors); None without any: nothing to pay for
+        self._sensors = SensorSet(scene) if scene.sensors else None
         self._allocate()
         self.reset()
         self._record()
@@ -409,6 +412,35 @@ class Stepper:
 
         read.keep = (inputs, out, host)      # the graph refers to these arrays
         return read
+
+    @property
+    def sensor_names(self) -> list[str]:
+        """The scene's sensors, in scene order (``sensors`` keys)."""
+        return [s.name for s in self.scene.sensors]
+
+    @property
+    def sensors(self) -> dict[str, dict[str, np.ndarray]]:
+        """The readings of the scene's sensors at the current state (affine_joint_sim.sensors;
+        README.md#sensors), ``{name: {value: array}}`` in the sensor's frame (its link's, or
+        its body's): an ``imu`` gives ``orientation`` (quaternion x, y, z, w of the frame in
+        the world, w ≥ 0), ``angular_velocity`` [rad/s] and ``linear_acceleration`` [m/s²]:
+        the specific force a − g over the last step (−g before the first step and right after
+        a reset); a ``contact`` sensor ``force`` [N] and ``torque`` [N·m about the frame's
+        origin], the sum over ``contacts`` of its body. Batched: each array gains a leading
+        env axis. Computed when read (a scene without sensors gives {} and pays nothing)."""
+        sensors = self._sensors
+        if sensors is None:
+            return {}
+        v = v_prev = contacts = None
+        if sensors.imu:
+            v, v_prev = self._read('v'), self._read('v_prev')
+        if sensors.contact:
+            contacts = self.contacts if self._batched else [self.contacts]
+        values = sensors.read(self._read('q'), v, v_prev, self._steps == 0, contacts)
+        if not self._batched:
+            values = {name: {key: array[0] for key, array in reading.items()}
+                      for name, reading in values.items()}
+        return values
 
     @property
     def energy(self) -> np.ndarray | float:

@@ -6,8 +6,9 @@ computed applies to step n, and a service never lands in the middle of a step. I
 mode a ``LockstepGate`` decides when the next step may go: it counts the answers to the
 published state, drops stale ones, has the waiting state published again for controllers that
 join late, and has the node say what it waits for. Each step publishes ``joint_states`` (and
-``/clock``) stamped with the step counter's simulated time. (Running the callbacks between
-steps in one thread would slow every step: rclpy builds its wait set in Python.) The
+``/clock``, then each sensor's ``sensors/<name>``) stamped with the step counter's simulated
+time. (Running the callbacks between steps in one thread would slow every step: rclpy builds
+its wait set in Python.) The
 node does no physics itself: its stepping is a ``SimLoop``, its bag a ``RunRecording``, and
 ``run_node`` is its process (signals, exit status, summary).
 """
@@ -19,7 +20,7 @@ import warnings
 
 import yaml
 from rclpy.duration import Duration
-from rclpy.exceptions import InvalidParameterTypeException
+from rclpy.exceptions import InvalidParameterTypeException, InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException, ShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -39,7 +40,8 @@ from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.recording import RunRecording
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
-from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, load_topics
+from affine_joint_sim.ros.sensor_messages import SensorMessages
+from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, SENSOR_KEYS, load_topics
 from affine_joint_sim.ros.viz import VizPublisher
 from affine_joint_sim.scene import Scene
 from affine_joint_sim.stepper import SimulationWarning, Stepper
@@ -73,6 +75,14 @@ def _base_note(scene: Scene) -> str:
         return (f'; base: URDF root link {root.name!r} welded to the world (fixed_base: true, '
                 'the default; fixed_base: false makes the robot float)')
     return f'; base: floating (fixed_base: false): root link {root.name!r} is free'
+
+
+def _sensor_note(publishers: dict, scene: Scene) -> str:
+    """The sensors' topics, for the start line: ``sensors: /sensors/imu (imu on trunk)``."""
+    if not scene.sensors:
+        return ''
+    return '; sensors: ' + ', '.join(f'{publishers[s.name].topic_name} ({s.type} on {s.body})'
+                                     for s in scene.sensors)
 
 
 class SimNode(Node):
@@ -151,7 +161,8 @@ class SimNode(Node):
         self.get_logger().info(
             f'scene {self.scene.name!r} ({len(self.sim.body_names)} bodies, joints '
             f'{", ".join(self.sim.joint_names)}), dt {self.scene.dt} s, device '
-            f'{self.sim.device}, mode {self.config["mode"]}{_base_note(self.scene)}')
+            f'{self.sim.device}, mode {self.config["mode"]}{_base_note(self.scene)}'
+            f'{_sensor_note(self.sensor_pubs, self.scene)}')
 
     # ---- setup ------------------------------------------------------------------------------
 
@@ -187,6 +198,10 @@ class SimNode(Node):
         self.clock_pub = self._publisher('clock')
         self._joint_states = JointStateFiller(self.sim, self.topics['joint_states'].msg_class)
         self._clock_msg = self.topics['clock'].msg_class()
+        # Per sensor of the scene: sensors/<name>, after joint_states every step (none: no cost)
+        self._sensor_msgs = SensorMessages(self.scene, self.topics)
+        self.sensor_pubs = {name: self._sensor_publisher(name, kind)
+                            for name, kind, _ in self._sensor_msgs.sensors}
         # Latched: the scene as run, every default spelled out, for late joiners and bags.
         self.scene_pub = self._publisher('scene')
         self.events_pub = self._publisher('events')
@@ -204,13 +219,25 @@ class SimNode(Node):
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
 
-    def _publisher(self, key: str):
-        """The publisher of topic ``key`` (topics.yaml), listed for the bag: every topic the
-        node publishes is created here, so the recorder knows it before its first message."""
+    def _publisher(self, key: str, item: str | None = None):
+        """The publisher of topic ``key`` (topics.yaml; ``item``: the sensor of a per-sensor
+        topic), listed for the bag: every topic the node publishes is created here, so the
+        recorder knows it before its first message."""
         topic = self.topics[key]
-        publisher = self.create_publisher(topic.msg_class, topic.name(), topic.qos)
+        publisher = self.create_publisher(topic.msg_class, topic.name(item), topic.qos)
         self._bag_topics.append(BagTopic(publisher.topic_name, topic.type, topic.qos))
         return publisher
+
+    def _sensor_publisher(self, name: str, kind: str):
+        """The publisher of sensor ``name`` (sensors/<name>); ConfigError if its name makes no
+        valid topic name here (too long)."""
+        key = SENSOR_KEYS[kind]
+        try:
+            return self._publisher(key, name)
+        except (InvalidTopicNameException, _rclpy.RCLError) as exc:
+            raise ConfigError(f'sensor {name!r}: its topic {self.topics[key].name(name)!r} is not '
+                              f'a valid ROS topic name in namespace {self.get_namespace()!r} '
+                              f'({str(exc).splitlines()[0]}); use a shorter sensor name') from None
 
     def _subscribe(self, key, joint):
         """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command; in
@@ -425,8 +452,9 @@ class SimNode(Node):
         self.recording.close()
 
     def publish_state(self, again: bool = False):
-        """Publish joint_states (and /clock) for the current step; ``again``: the state the
-        lockstep gate waits on, once more and not recorded (it is in the bag already)."""
+        """Publish joint_states (and /clock, then the sensors) for the current step; ``again``:
+        the state the lockstep gate waits on, once more and not recorded (it is in the bag
+        already; its sensors are not published again)."""
         if not again:
             self.gate.expect(self.loop.sim_time_ns)
         msg = self._joint_states.fill(self.sim, self.loop.sim_time_ns)
@@ -439,6 +467,9 @@ class SimNode(Node):
             clock = self._clock_msg.clock
             clock.sec, clock.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
             self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
+        if self._sensor_msgs:
+            for name, raw in self._sensor_msgs.fill(self.sim.sensors, self.loop.sim_time_ns):
+                self._publish_and_record(self.sensor_pubs[name], raw, t_ns)
         self.viz.publish(self.loop.sim_time_ns, t_ns)
         self.recording.flush_if_due()
 

@@ -2,9 +2,10 @@
 
 A bag from the node holds the scene (``~/scene``), the run's events (``~/events``: start with
 its parameters, resets, parameter changes), every command as received at the bag time of the
-step it applied to, and ``joint_states``. Replay applies the commands through the node's own
-``CommandBuffer`` (same latest-wins, non-finite rejection and command timeout) before the
-same steps, so a replay on the same device and precision reproduces the run bit for bit.
+step it applied to, ``joint_states`` and the scene's sensors (``sensors/<name>``), which are
+compared too. Replay applies the commands through the node's own ``CommandBuffer`` (same
+latest-wins, non-finite rejection and command timeout) before the same steps, so a replay on
+the same device and precision reproduces the run bit for bit.
 With another scene (another dt, integrator, torque_model, ...) a command recorded at time t
 applies from the first step starting at or after t, and the recorded states are compared with
 the re-simulated trajectory interpolated linearly at their stamps: the offline what-if tool.
@@ -33,12 +34,15 @@ from affine_joint_sim.ros.lockstep import LockstepGate
 from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
-from affine_joint_sim.ros.topics import COMMAND_KEYS, load_topics, message_class
+from affine_joint_sim.ros.sensor_messages import (SensorMessages, difference, message_values,
+                                                  sensor_values)
+from affine_joint_sim.ros.topics import COMMAND_KEYS, SENSOR_KEYS, load_topics, message_class
 from affine_joint_sim.scene import Scene, SceneError, topic_token
 
 __all__ = ['ReplayError', 'Divergence', 'read_bag', 'replay', 'publish']
 
 _EPS_NS = 1000          # [ns]: times closer than this are the same step
+_SENSOR_TYPE = {key: kind for kind, key in SENSOR_KEYS.items()}     # topic key -> sensor type
 
 
 class ReplayError(Exception):
@@ -55,6 +59,11 @@ class Divergence:
         max_velocity: max |Δω| per joint [rad/s].
         states: number of recorded states compared.
         dropped: recorded commands the command buffer refused (as the node did).
+        sensors: per sensor compared, the largest |Δ| of its values, each in its unit
+            (orientation quaternion, rad/s, m/s²; N, N·m).
+        sensor_messages: number of recorded sensor messages compared.
+        uncompared: sensors recorded in the bag that the re-simulated scene does not have (a
+            what-if with another scene).
     """
 
     joint_names: list[str]
@@ -62,15 +71,27 @@ class Divergence:
     max_velocity: np.ndarray
     states: int = 0
     dropped: list[str] = field(default_factory=list)
+    sensors: dict[str, float] = field(default_factory=dict)
+    sensor_messages: int = 0
+    uncompared: list[str] = field(default_factory=list)
 
     def worst(self) -> float:
-        return float(max(self.max_angle.max(initial=0.0), self.max_velocity.max(initial=0.0)))
+        return float(max(self.max_angle.max(initial=0.0), self.max_velocity.max(initial=0.0),
+                         *self.sensors.values()))
 
     def table(self) -> str:
         width = max([5] + [len(n) for n in self.joint_names])
         lines = [f'{"joint":<{width}}  {"max |Δθ| [rad]":>15}  {"max |Δω| [rad/s]":>17}']
         lines += [f'{n:<{width}}  {a:15.3e}  {w:17.3e}'
                   for n, a, w in zip(self.joint_names, self.max_angle, self.max_velocity)]
+        if self.sensors:
+            width = max([6] + [len(n) for n in self.sensors])
+            lines.append(f'{"sensor":<{width}}  {"max |Δ|":>15}   ({self.sensor_messages} '
+                         'messages; each value in its unit)')
+            lines += [f'{n:<{width}}  {d:15.3e}' for n, d in self.sensors.items()]
+        if self.uncompared:
+            lines.append('sensors recorded but not in the scene, not compared: '
+                         + ', '.join(self.uncompared))
         if self.dropped:
             lines.append(f'{len(self.dropped)} recorded commands refused (as the node did), '
                          f'first: {self.dropped[0]}')
@@ -79,12 +100,12 @@ class Divergence:
 
 @dataclass
 class _Message:
-    kind: str           # a command key, 'joint_states', 'scene', 'events' or '' (other)
+    kind: str           # a command key, 'joint_states', a sensor key, 'scene', 'events' or ''
     topic: str
     t_ns: int
     raw: bytes
     msgtype: str
-    joint: str | None = None
+    joint: str | None = None    # the joint of a per-joint topic, the sensor of a sensor topic
 
     def decode(self):
         """The message; ReplayError (a damaged bag) if its bytes do not decode."""
@@ -108,19 +129,24 @@ class RecordedBag:
 
 
 def _classifier():
-    """Map a bag topic name to (kind, joint) using the patterns of topics.yaml."""
+    """Map a bag topic name and its message type to (kind, joint or sensor) using the
+    patterns of topics.yaml (the sensors' topics share one pattern: their type tells them
+    apart)."""
     topics = load_topics()
     patterns = []
     for key, topic in topics.items():
-        body = re.escape(topic.template.lstrip('~/')).replace(re.escape('{joint}'),
-                                                               r'(?P<joint>[A-Za-z_]\w*)')
-        patterns.append((key, re.compile(rf'^(.*/)?{body}$')))
+        body = re.escape(topic.template.lstrip('~/'))
+        for placeholder in ('{joint}', '{sensor}'):
+            body = body.replace(re.escape(placeholder), r'(?P<item>[A-Za-z_]\w*)')
+        patterns.append((key, re.compile(rf'^(.*/)?{body}$'), topic.type))
 
-    def classify(name: str):
-        for key, pattern in patterns:
+    def classify(name: str, msgtype: str | None = None):
+        for key, pattern, type_name in patterns:
+            if key in _SENSOR_TYPE and msgtype is not None and msgtype != type_name:
+                continue
             match = pattern.match(name)
             if match:
-                return key, match.groupdict().get('joint')
+                return key, match.groupdict().get('item')
         return '', None
 
     return classify
@@ -143,15 +169,17 @@ def read_bag(path, kinds=None, start_ns: int | None = None,
         with Reader(path) as reader:
             bag.span_ns = (reader.start_time, reader.end_time)
             if kinds is not None:
-                wanted = [c for c in reader.connections if classify(c.topic)[0] in kinds]
-                scenes = [c for c in reader.connections if classify(c.topic)[0] == 'scene']
+                wanted = [c for c in reader.connections
+                          if classify(c.topic, c.msgtype)[0] in kinds]
+                scenes = [c for c in reader.connections
+                          if classify(c.topic, c.msgtype)[0] == 'scene']
                 messages = itertools.chain(reader.messages(scenes),
                                            reader.messages(wanted, start_ns, stop_ns)
                                            if wanted else ())
             else:
                 messages = reader.messages()
             for connection, t_ns, raw in messages:
-                kind, joint = classify(connection.topic)
+                kind, joint = classify(connection.topic, connection.msgtype)
                 message = _Message(kind, connection.topic, t_ns, bytes(raw), connection.msgtype,
                                    joint)
                 if kind == 'scene' and bag.scene_yaml is None:
@@ -211,9 +239,10 @@ class _Resimulation:
     """The stepper driven by recorded commands, sampled at recorded stamps.
 
     ``on_state(bag_ns, stamp_ns, sim)`` is called for the initial state and after every step.
+    ``sensors``: sample the scene's sensors too (the bag has sensor messages to compare).
     """
 
-    def __init__(self, scene: Scene, device: str, on_state=None):
+    def __init__(self, scene: Scene, device: str, on_state=None, sensors: bool = False):
         from affine_joint_sim.stepper import Stepper
 
         try:
@@ -229,6 +258,8 @@ class _Resimulation:
         # the node's own loop; its pacer and lockstep gate stay idle: replay runs flat out
         self.loop = SimLoop(self.sim, self.buffer, Pacer(), LockstepGate())
         self.on_state = on_state
+        # sensor name -> its type, when sampled
+        self.sensor_types = {s.name: s.type for s in scene.sensors} if sensors else {}
         self.reset(0)
 
     @property
@@ -244,8 +275,13 @@ class _Resimulation:
         self.previous = self.current = self._sample()
 
     def _sample(self):
+        sensors = {}
+        if self.sensor_types:
+            readings = self.sim.sensors
+            sensors = {name: sensor_values(kind, readings[name])
+                       for name, kind in self.sensor_types.items()}
         sample = (self.loop.sim_time_ns, self.states.select(self.sim.angles),
-                  self.states.select(self.sim.velocities))
+                  self.states.select(self.sim.velocities), sensors)
         if self.on_state is not None:
             self.on_state(self.loop.bag_ns, sample[0], self.sim)
         return sample
@@ -261,16 +297,31 @@ class _Resimulation:
         self.loop.step()
         self.previous, self.current = self.current, self._sample()
 
-    def at(self, stamp_ns: int):
-        """Angles and velocities at ``stamp_ns`` (since the last reset), stepping as needed."""
+    def _reach(self, stamp_ns: int) -> float | None:
+        """Step until the current sample is at or after ``stamp_ns`` (since the last reset);
+        the fraction of the way from the previous sample to the current one, None at it."""
         while self.current[0] < stamp_ns - _EPS_NS:
             self.step()
-        (t0, a0, w0), (t1, a1, w1) = self.previous, self.current
+        t0, t1 = self.previous[0], self.current[0]
         if abs(t1 - stamp_ns) <= _EPS_NS or t1 == t0:
+            return None
+        return (stamp_ns - t0) / (t1 - t0)
+
+    def at(self, stamp_ns: int):
+        """Angles and velocities at ``stamp_ns`` (since the last reset), stepping as needed."""
+        s = self._reach(stamp_ns)
+        (_, a0, w0, _), (_, a1, w1, _) = self.previous, self.current
+        if s is None:
             return a1, w1
-        s = (stamp_ns - t0) / (t1 - t0)
         da = np.where(self.wrapped, _wrap(a1 - a0), a1 - a0)
         return a0 + s * da, w0 + s * (w1 - w0)
+
+    def sensor_at(self, name: str, stamp_ns: int) -> np.ndarray:
+        """Sensor ``name``'s values (``sensor_values``) at ``stamp_ns``, stepping as needed
+        (between two steps: interpolated linearly, a what-if with another dt)."""
+        s = self._reach(stamp_ns)
+        now = self.current[3][name]
+        return now if s is None else self.previous[3][name] + s * (now - self.previous[3][name])
 
 
 def _wrap(angle):
@@ -279,9 +330,11 @@ def _wrap(angle):
 
 def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
            storage: str = 'mcap', on_state=None) -> Divergence:
-    """Re-simulate ``bag`` (with its own scene, or ``scene_path``) and compare joint states.
+    """Re-simulate ``bag`` (with its own scene, or ``scene_path``) and compare joint states
+    and the sensors' messages it holds (those of sensors the scene has).
 
-    ``out``: a bag directory to write the re-simulated run into (scene, commands, states).
+    ``out``: a bag directory to write the re-simulated run into (scene, commands, states,
+    sensors).
     ``on_state(bag_ns, stamp_ns, sim)``: called for the initial state and after every step.
     """
     scene = _scene_of(bag, scene_path)
@@ -292,7 +345,8 @@ def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
         for hook in hooks:
             hook(*args)
 
-    run = _Resimulation(scene, device, each_state if hooks else None)
+    recorded = any(m.kind in _SENSOR_TYPE for m in bag.messages)
+    run = _Resimulation(scene, device, each_state if hooks else None, sensors=recorded)
     names = run.states.names
     divergence = Divergence(names, np.zeros(len(names)), np.zeros(len(names)))
     try:
@@ -336,6 +390,8 @@ def _replay_messages(bag, run, writer, divergence, scene):
             divergence.max_angle = np.maximum(divergence.max_angle, d_angle)
             divergence.max_velocity = np.maximum(divergence.max_velocity, d_velocity)
             divergence.states += 1
+        elif m.kind in _SENSOR_TYPE:
+            _compare_sensor(m, run, divergence)
     divergence.dropped = run.dropped
     if not started:
         raise ReplayError(f'{bag.path}: no start event on ~/events, so not a bag of the '
@@ -344,9 +400,24 @@ def _replay_messages(bag, run, writer, divergence, scene):
         raise ReplayError(f'{bag.path}: the bag holds no joint_states to compare')
 
 
+def _compare_sensor(m: _Message, run: _Resimulation, divergence: Divergence) -> None:
+    """Compare a recorded sensor message with the re-simulated sensor of its name (one the
+    scene does not have, or has of another type, is listed as not compared)."""
+    kind = _SENSOR_TYPE[m.kind]
+    if run.sensor_types.get(m.joint) != kind:
+        if m.joint not in divergence.uncompared:
+            divergence.uncompared.append(m.joint)
+        return
+    msg = m.decode()
+    stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+    d = difference(kind, run.sensor_at(m.joint, stamp), message_values(kind, msg))
+    divergence.sensors[m.joint] = max(divergence.sensors.get(m.joint, 0.0), d)
+    divergence.sensor_messages += 1
+
+
 class _OutBag:
     """The re-simulated run as a bag: its scene, the recorded commands and events, every new
-    state."""
+    state and its sensors' messages."""
 
     def __init__(self, path, storage, bag: RecordedBag, scene: Scene):
         topics = load_topics()
@@ -357,6 +428,15 @@ class _OutBag:
         bag_topics += [BagTopic(name, topics[key].type, topics[key].qos) for key, name in (
             ('joint_states', self.states_topic), ('scene', scene_topic),
             ('events', events_topic))]
+        # the scene's sensors, on their recorded topics (else beside joint_states)
+        self.sensors = SensorMessages(scene, topics)
+        recorded = {m.joint: m.topic for m in bag.messages if m.kind in _SENSOR_TYPE}
+        prefix = self.states_topic[:len(self.states_topic) - len('joint_states')] \
+            if self.states_topic.endswith('joint_states') else '/'
+        self.sensor_topics = {name: recorded.get(name, prefix + topics[key].name(name))
+                              for name, _, key in self.sensors.sensors}
+        bag_topics += [BagTopic(self.sensor_topics[name], topics[key].type, topics[key].qos)
+                       for name, _, key in self.sensors.sensors]
         try:
             self.recorder = BagRecorder(path, storage, bag_topics)
         except (FileExistsError, OSError) as exc:
@@ -376,6 +456,9 @@ class _OutBag:
             self.states = JointStateFiller(sim, message_class('sensor_msgs/msg/JointState'))
         self.recorder.write(self.states_topic, bag_ns,
                             serialize_message(self.states.fill(sim, stamp_ns)))
+        if self.sensors:
+            for name, raw in self.sensors.fill(sim.sensors, stamp_ns):
+                self.recorder.write(self.sensor_topics[name], bag_ns, raw)
 
 
 def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',

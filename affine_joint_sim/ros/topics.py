@@ -15,11 +15,12 @@ from affine_joint_sim.resources import config_dir
 from affine_joint_sim.scene import topic_token
 
 __all__ = ['Topic', 'TOPIC_KEYS', 'COMMAND_KEYS', 'ANSWER_KEYS', 'JOINT_COMMAND_KEYS',
-           'load_topics', 'message_class']
+           'SENSOR_KEYS', 'load_topics', 'message_class']
 
 TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
               'joint_commands', 'effort_commands', 'position_commands', 'joint_states', 'clock',
-              'scene', 'robot_description', 'events', 'markers', 'body_poses')
+              'scene', 'robot_description', 'events', 'markers', 'body_poses', 'sensor_imu',
+              'sensor_contact')
 # Commands that answer a lockstep state (several joints at once).
 ANSWER_KEYS = ('joint_commands', 'effort_commands', 'position_commands')
 COMMAND_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
@@ -28,6 +29,8 @@ COMMAND_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enab
 # on/off switch).
 JOINT_COMMAND_KEYS = {'torque': ('joint_torque', 'joint_enable'),
                       'force': ('joint_force', 'joint_force_enable')}
+# The topic of each type of sensor (scene.SENSOR_TYPES), one per sensor: sensors/{sensor}.
+SENSOR_KEYS = {'imu': 'sensor_imu', 'contact': 'sensor_contact'}
 
 _RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
                 'best_effort': ReliabilityPolicy.BEST_EFFORT}
@@ -42,7 +45,8 @@ class Topic:
     Attributes:
         key: the entry's key (``joint_torque``, ``joint_states``, ...).
         template: topic name, relative to the node namespace unless absolute; ``{joint}``
-            stands for a joint name (as ``scene.topic_token`` makes it a valid token).
+            stands for a joint name (as ``scene.topic_token`` makes it a valid token),
+            ``{sensor}`` for a sensor's name (a token already).
         type: message type, ``package/msg/Name``.
         qos: the QoS profile publishers and subscribers of this topic use.
     """
@@ -53,10 +57,12 @@ class Topic:
     qos: QoSProfile
 
     def name(self, joint: str | None = None) -> str:
-        """The topic name, with ``{joint}`` replaced for per-joint topics."""
+        """The topic name, with ``{joint}`` (``{sensor}``) replaced by ``joint`` made a topic
+        token for per-joint (per-sensor) topics."""
         if joint is None:
             return self.template
-        return self.template.format(joint=topic_token(joint))
+        token = topic_token(joint)
+        return self.template.format(joint=token, sensor=token)
 
     @property
     def msg_class(self):

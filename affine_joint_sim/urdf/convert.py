@@ -34,7 +34,7 @@ from affine_joint_sim.contact_schema import Contact, Ground, Origin
 from affine_joint_sim.physics.mass import inertia_mass_properties
 from affine_joint_sim.rotations import (axis_rotation, pose_matrix, quaternion_from_matrix,
                                         rpy_from_matrix)
-from affine_joint_sim.scene import (Number, SceneError, SceneName, SceneSettings,
+from affine_joint_sim.scene import (Number, SceneError, SceneName, SceneSettings, Sensor,
                                     validation_report)
 from affine_joint_sim.sim_warnings import SimulationWarning
 from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
@@ -68,6 +68,7 @@ class UrdfOptions(SceneSettings):
     base: Origin = Origin()             # the root link's pose in the world
     contact: Contact | None = None      # as a scene's; with ground: <collision> is used
     ground: Ground | None = None
+    sensors: list[Sensor] = []          # as a scene's; body: a link name (README.md#sensors)
 
 
 def urdf_scene_data(path, overrides: dict, source: str) -> tuple[dict, str]:
@@ -415,7 +416,7 @@ class _Converter:
                                self.path.parent, {b['name']: _size(b) for b in bodies},
                                lambda message: _warn(f'{self.path}: {message}'))
         settings = options.model_dump(include={*SceneSettings.model_fields, 'contact',
-                                               'ground'}, exclude_none=True)
+                                               'ground', 'sensors'}, exclude_none=True)
         settings['name'] = options.name or self.robot.name or self.path.stem
         return {**settings, 'bodies': bodies, 'joints': joints, 'frames': frames,
                 'visuals': visuals}
