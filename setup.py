@@ -36,6 +36,7 @@ setup(
         'pyyaml',
         'pydantic>=2',
         'yourdfpy>=0.0.56,<0.1',    # URDF robots (README.md#robots-from-urdf); meshes never loaded
+        'trimesh',                  # collision meshes' vertices (README.md#contact); yourdfpy's too
         'matplotlib',               # `render` and the plots of `make bench`
     ],
     extras_require={

@@ -292,12 +292,16 @@ class Stepper:
         h, n = self._host, self._envs
         q0 = np.broadcast_to(h.body_q0, (n, *h.body_q0.shape))
         v0 = np.broadcast_to(h.body_v0, (n, *h.body_v0.shape))
+        # q_n too: a step writes the free bodies' rows only, so the fixed ones keep q0 (the
+        # energy at q_n, which Newton's start compares, includes their joints)
         for array, value in ((self._state.q, q0), (self._state.v, v0), (self._state.q_prev, q0),
-                             (self._state.v_prev, v0)):
+                             (self._state.v_prev, v0), (self._scratch.q_n, q0)):
             array.assign(np.ascontiguousarray(value))
+        # and no lagged contact forces: the first step lags its own (sim.contacts reads them)
         for array in (self._state.history_ready, self._control.joint_target,
                       self._control.joint_drive_enabled, self._state.joint_velocity,
-                      self._state.joint_effort, self._state.stats_int, self._state.stats_float):
+                      self._state.joint_effort, self._state.stats_int, self._state.stats_float,
+                      self._scratch.friction_normal, self._scratch.normal_damping):
             array.zero_()
         x0 = np.ascontiguousarray(np.broadcast_to(h.joint_initial_position,
                                                   (n, h.joint_count)))
@@ -444,7 +448,8 @@ class Stepper:
 
     @property
     def energy(self) -> np.ndarray | float:
-        """Mechanical energy [J]: kinetic + gravity + orthogonality + joint springs (per env).
+        """Mechanical energy [J]: kinetic + gravity + orthogonality + joint springs (+ contact
+        barriers) (per env).
 
         BDF steps dissipate it; a passive system must not gain it (physics.energy)."""
         energy = mechanical_energy(self._host, self._read('q'), self._read('v'),

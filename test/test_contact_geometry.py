@@ -214,3 +214,20 @@ def test_run_adds_a_ground_under_any_scene_and_a_urdf_robot_touches_it_with_its_
     line = next(s for s in done.stdout.splitlines() if s.startswith('contact:'))
     assert float(line.split('world ')[1].split(' m')[0]) > 0.0
     assert 'at most 0 contacts' not in line
+
+
+def test_base_places_a_fixed_base_robot_root_link_and_all(tmp_path):
+    """Before, the fixed root body stayed at the origin while its links and joints moved."""
+    from affine_joint_sim.rotations import rpy_matrix
+
+    urdf = ROOT / 'msg_configs' / 'robots' / 'quadruped.urdf'
+    base = {'xyz': [0.5, -0.2, 1.0], 'rpy': [0.0, 0.0, 0.3]}
+    moved, home = (Scene.from_urdf(urdf, base=base, ground={'height': 0.0}),
+                   Scene.from_urdf(urdf, ground={'height': -1.0}))
+    shift = np.eye(4)
+    shift[:3, :3], shift[:3, 3] = rpy_matrix(*base['rpy']), base['xyz']
+    sims = Stepper(moved), Stepper(home)
+    np.testing.assert_allclose(sims[0].link_transforms, shift @ sims[1].link_transforms,
+                               atol=1e-12)
+    trunk = moved.bodies[moved.body_index('trunk')]
+    assert trunk.fixed and list(trunk.position) == base['xyz']

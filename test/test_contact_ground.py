@@ -220,7 +220,8 @@ def test_a_box_that_slips_on_an_incline_accelerates_at_g_sin_minus_mu_g_cos():
 
 def test_contact_damping_ends_a_bounce_that_the_bare_barrier_keeps():
     """BDF2 barely damps a stiff barrier: a box dropped 2 mm at dt 1 ms still bounced after
-    a second (its gap ranging over 1.2 mm) before contact damping (ζ = 1, the default)."""
+    a second (its gap ranging over 1.2 mm) before contact damping (ζ = 1, the default; it
+    acts against approach only, so a micron-sized rocking is left)."""
     spreads = {}
     for damping in (1.0, 0.0):
         scene = Scene.from_dict({
@@ -235,7 +236,7 @@ def test_contact_damping_ends_a_bounce_that_the_bare_barrier_keeps():
             gaps.append(sim.stats['min_distance'])
         spreads[damping] = max(gaps[500:]) - min(gaps[500:])
         assert min(gaps) > 0.0
-    assert spreads[1.0] < 1e-9 and spreads[0.0] > 1e-4
+    assert spreads[1.0] < 1e-6 and spreads[0.0] > 1e-4
 
 
 def test_a_solid_ball_rolls_down_an_incline_at_five_sevenths_g_sin_alpha():
@@ -309,7 +310,8 @@ def test_friction_and_damping_gradients_and_hessians_match_finite_differences(sl
         q[0, :3] = [0.01, -0.02, 0.055]
         q[0, 3:] = rpy_matrix(0.3, -0.2, 0.1).reshape(9)
     start = q.copy()
-    start[0, :2] -= slip * np.array([0.6, 0.8])           # where the step started
+    start[0, :2] -= slip * np.array([0.6, 0.8])           # where the step started: 0.2 mm
+    start[0, 2] += 2e-4                                    # higher, so the damper acts
     start[0, 3:] = (rpy_matrix(0.0, 0.0, 0.01) @ q[0, 3:].reshape(3, 3)).reshape(9)   # turned
     with_contact.scratch.q_n.assign(start[None])
     # a lagged normal force and damping on every point against the plane, as at the step

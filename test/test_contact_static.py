@@ -151,3 +151,20 @@ def test_an_articulation_does_not_touch_its_own_fixed_geometry_and_others_do():
     intruder = _scene(TABLE, {'shape': {'box': [0.1, 0.1, 0.1]}, 'position': [0.0, 0.0, 0.08]})
     with pytest.raises(SceneError, match=r"body 'thing' starts 0\.02 m inside table"):
         Stepper(intruder)
+
+
+def test_after_a_reset_the_contacts_are_those_of_a_fresh_start():
+    """Before, reset kept the last step's lagged friction and damping: the ramp's box, 0.5 mm
+    from the ramp at t = 0, was reported with a full friction force in some direction."""
+    from pathlib import Path
+    ramp = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes' / 'ramp.yaml'
+    fresh, used = Stepper(Scene.load(ramp)), Stepper(Scene.load(ramp))
+    for _ in range(50):
+        used.step()
+    used.reset()
+    before, after = fresh.contacts, used.contacts
+    assert len(before) == 4 and len(after) == 4
+    for a, b in zip(before, after):
+        assert np.array_equal(a['friction_force'], np.zeros(3))
+        assert a['normal_force'] == b['normal_force']
+        np.testing.assert_array_equal(a['friction_force'], b['friction_force'])

@@ -184,8 +184,9 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def damping_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
                        env: int):
-        """Σ ½ c dt (d(q) − d(q_n))² over the pairs with lagged damping [J·s²]: a viscous
-        force −c ḋ on each contact's approach, ḋ ≈ (d − d_n)/dt."""
+        """Σ ½ c dt min(d(q) − d(q_n), 0)² over the pairs with lagged damping [J·s²]: a
+        viscous force −c ḋ against each contact's approach (ḋ ≈ (d − d_n)/dt < 0), none
+        while it separates (a damper that pulled would hold a lifting foot down)."""
         energy = zero
         things = statics(model)
         for i in range(model.point_body.shape[0]):
@@ -195,14 +196,16 @@ def build(t) -> SimpleNamespace:
                 if weight > zero:
                     d, n = distance(model, q[env, b], i, g)
                     d_n, n_n = distance(model, scratch.q_n[env, b], i, g)
-                    energy += half * weight * (d - d_n) * (d - d_n)
+                    approach = wp.min(d - d_n, zero)
+                    energy += half * weight * approach * approach
         return energy
 
     @wp.func
     def add_damping(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                     hessian: int):
-        """Contact damping's gradient c dt (d − d_n) w into scratch.rhs and, with ``hessian``,
-        c dt w wᵀ (w = J(x̄)ᵀ n; a shape's curvature left out, as for the barrier)."""
+        """Contact damping's gradient c dt min(d − d_n, 0) w into scratch.rhs and, while the
+        pair approaches, c dt w wᵀ (w = J(x̄)ᵀ n; a shape's curvature left out, as for the
+        barrier)."""
         things = statics(model)
         for i in range(model.point_body.shape[0]):
             b = model.point_body[i]
@@ -211,10 +214,11 @@ def build(t) -> SimpleNamespace:
                 if weight > zero:
                     d, n = distance(model, q[env, b], i, g)
                     d_n, n_n = distance(model, scratch.q_n[env, b], i, g)
-                    w = jacobian_transpose(model.point_rest[i], n)
-                    scratch.rhs[env, b] -= weight * (d - d_n) * w
-                    if hessian != 0:
-                        scratch.hessian[env, b] += wp.outer(weight * w, w)
+                    if d < d_n:
+                        w = jacobian_transpose(model.point_rest[i], n)
+                        scratch.rhs[env, b] -= weight * (d - d_n) * w
+                        if hessian != 0:
+                            scratch.hessian[env, b] += wp.outer(weight * w, w)
 
     @wp.func
     def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, i: int,

@@ -1,13 +1,14 @@
 """The active contacts of a state, host side (``Stepper.contacts``, sensors, markers;
 README.md#contact).
 
-A pair is active when its distance is below d̂. Its normal force is the barrier's push
-−db/dd [N] at the state's distance, plus the contact damping's c (d_n − d)/dt with the c frozen
-at the step's start (``scratch.normal_damping`` / dt); its friction force the lagged smoothed
-Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against the slip u since the step's
-start, λ the normal force frozen at that start (``scratch.friction_normal`` / dt²). These are
-the forces the step balanced, as ``physics.contact`` computes them, evaluated once more in
-NumPy (plain NumPy arithmetic: the last bits may differ from the kernel's and between
+A pair is active when its distance is below d̂, or when forces were lagged for it at the
+step's start (they act until the step ends). Its normal force is the barrier's push −db/dd
+[N] at the state's distance, plus the contact damping's c max(d_n − d, 0)/dt against its
+approach, c frozen at the step's start (``scratch.normal_damping`` / dt); its friction force
+the lagged smoothed Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against the slip u
+since the step's start, λ the normal force frozen at that start (``scratch.friction_normal``
+/ dt²). These are the forces the step balanced, as ``physics.contact`` computes them,
+evaluated once more in plain NumPy (the last bits may differ from the kernel's, and between
 machines).
 """
 
@@ -62,31 +63,35 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
     things = len(host.plane_offset) + len(host.shape_kind)
     dt2 = float(host.dt) ** 2
     out = []
-    for i, g in _candidates(host, q):
+    for i, g in _candidates(host, q, friction_normal, normal_damping):
         b, rest, radius = host.point_body[i], host.point_rest[i], host.point_radius[i]
         pair = i * things + g
         x = _world(q[b], rest)
         centre_distance, normal = _separation(host, x, g)
         d = centre_distance - radius
-        if not 0.0 < d < host.contact_d_hat:
+        lagged = friction_normal[pair] > 0.0 or normal_damping[pair] > 0.0
+        if not (0.0 < d < host.contact_d_hat or (lagged and d > 0.0)):
             continue
         force = np.zeros(3)
         if friction_normal[pair] > 0.0:
             force = _friction(host, q, q_n, i, g, pair, friction_normal[pair] / dt2)
-        push = barrier_force(d, host.contact_d_hat, host.contact_kappa)
+        push = barrier_force(d, host.contact_d_hat, host.contact_kappa) \
+            if d < host.contact_d_hat else 0.0
         if normal_damping[pair] > 0.0:
             d_n = _separation(host, _world(q_n[b], rest), g)[0] - radius
-            push += normal_damping[pair] * (d_n - d) / dt2
+            push += normal_damping[pair] * max(d_n - d, 0.0) / dt2
         out.append({'body': body_names[b], 'other': static_names[g],
                     'point': x - normal * centre_distance, 'normal': np.asarray(normal),
                     'distance': float(d), 'normal_force': push, 'friction_force': force})
     return out
 
 
-def _candidates(host, q) -> list[tuple[int, int]]:
+def _candidates(host, q, friction_normal, normal_damping) -> list[tuple[int, int]]:
     """(point, static thing) pairs that may touch and may be closer than d̂, found for every
-    point at once: the exact distance to a half-space, a lower bound for a shape (the distance
-    to its centre less its bounding radius). The pairs are then evaluated one by one."""
+    point at once (the exact distance to a half-space, a lower bound for a shape: the distance
+    to its centre less its bounding radius), and those with forces lagged at the step's start
+    (friction and damping act on them even once they are beyond d̂). The pairs are then
+    evaluated one by one."""
     body, radius = host.point_body, host.point_radius
     x = q[body, :3] + np.einsum('nij,nj->ni', q[body, 3:].reshape(-1, 3, 3), host.point_rest)
     planes, shapes = len(host.plane_offset), len(host.shape_kind)
@@ -99,6 +104,8 @@ def _candidates(host, q) -> list[tuple[int, int]]:
                                - _bounding_radius(host.shape_kind[s], host.shape_size[s])
                                - radius < host.contact_d_hat)
     near &= host.pair_on.reshape(near.shape) != 0
+    near |= (friction_normal > 0.0).reshape(near.shape) | (normal_damping > 0.0).reshape(
+        near.shape)                         # lagged at the step's start: they acted on it
     return [(int(i), int(g)) for i, g in np.argwhere(near)]
 
 

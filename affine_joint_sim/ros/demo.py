@@ -36,10 +36,12 @@ def _targets(scene: str, targets: dict[str, float]) -> dict[str, float]:
     from affine_joint_sim.resources import scene_path
     from affine_joint_sim.scene import Scene
 
-    loaded = Scene.load(scene_path(scene))
+    path = scene_path(scene)
+    loaded = Scene.load(path)
     moving = {j.name: j.initial_position for j in loaded.joints if j.type != 'fixed'}
     if not targets:
-        return {'shoulder': 1.0} if scene == 'pendulum' else moving
+        return {'shoulder': 1.0} if path.resolve() == scene_path('pendulum').resolve() \
+            else moving
     wrong = [joint for joint in targets if joint not in moving]
     if wrong:
         raise ValueError(f'--target {", ".join(wrong)}: not a moving joint of scene '

@@ -43,7 +43,7 @@ from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, comm
 from affine_joint_sim.ros.sensor_messages import SensorMessages
 from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, SENSOR_KEYS, load_topics
 from affine_joint_sim.ros.viz import VizPublisher
-from affine_joint_sim.scene import Scene
+from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import SimulationWarning, Stepper
 from affine_joint_sim.viz.description import robot_description
 
@@ -112,6 +112,8 @@ class SimNode(Node):
                 warnings.simplefilter('always', SimulationWarning)
                 self.sim = Stepper(self.scene, device=self.config['device'],
                                    on_problem=self.get_logger().warning)
+        except SceneError:
+            raise                       # the scene's own line (e.g. it starts touching)
         except (ValueError, RuntimeError) as exc:
             raise ConfigError(f"parameter 'device': {exc}") from None
         for warning in loading:
@@ -198,7 +200,7 @@ class SimNode(Node):
         self.clock_pub = self._publisher('clock')
         self._joint_states = JointStateFiller(self.sim, self.topics['joint_states'].msg_class)
         self._clock_msg = self.topics['clock'].msg_class()
-        # Per sensor of the scene: sensors/<name>, after joint_states every step (none: no cost)
+        # per sensor of the scene: sensors/<name>, just before joint_states (none: no cost)
         self._sensor_msgs = SensorMessages(self.scene, self.topics)
         self.sensor_pubs = {name: self._sensor_publisher(name, kind)
                             for name, kind, _ in self._sensor_msgs.sensors}
@@ -452,9 +454,11 @@ class SimNode(Node):
         self.recording.close()
 
     def publish_state(self, again: bool = False):
-        """Publish joint_states (and /clock, then the sensors) for the current step; ``again``:
-        the state the lockstep gate waits on, once more and not recorded (it is in the bag
-        already; its sensors are not published again)."""
+        """Publish the sensors, then joint_states and /clock, for the current step (a
+        controller that answers joint_states has the same step's sensor readings already:
+        lockstep stays deterministic); ``again``: the state the lockstep gate waits on, once
+        more and not recorded (it is in the bag already; its sensors are not published
+        again)."""
         if not again:
             self.gate.expect(self.loop.sim_time_ns)
         msg = self._joint_states.fill(self.sim, self.loop.sim_time_ns)
@@ -462,14 +466,14 @@ class SimNode(Node):
             self.state_pub.publish(msg)
             return
         t_ns = self.loop.bag_ns
+        if self._sensor_msgs:
+            for name, raw in self._sensor_msgs.fill(self.sim.sensors, self.loop.sim_time_ns):
+                self._publish_and_record(self.sensor_pubs[name], raw, t_ns)
         self._publish_and_record(self.state_pub, msg, t_ns)
         if self.config['publish_clock']:
             clock = self._clock_msg.clock
             clock.sec, clock.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
             self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
-        if self._sensor_msgs:
-            for name, raw in self._sensor_msgs.fill(self.sim.sensors, self.loop.sim_time_ns):
-                self._publish_and_record(self.sensor_pubs[name], raw, t_ns)
         self.viz.publish(self.loop.sim_time_ns, t_ns)
         self.recording.flush_if_due()
 

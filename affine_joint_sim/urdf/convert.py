@@ -259,9 +259,11 @@ class _Converter:
         inertia = combine([self._own_inertia(link) for link in links])
         pose = np.eye(4)
         if fixed:
-            pose = self.poses[name]
+            pose = self.poses[name]             # the root link's, at ``base``
             mass = inertia.mass if inertia.mass > 0.0 else total_moving_mass
-            body = {'name': name, 'mass': max(mass, 1e-9), 'fixed': True}
+            body = {'name': name, 'mass': max(mass, 1e-9), 'fixed': True,
+                    'position': _list(pose[:3, 3]),
+                    'orientation': {'quat_xyzw': quaternion_from_matrix(pose[:3, :3])}}
         else:
             if inertia.mass < self.options.min_mass:
                 _warn(f'{self.path}: link {name!r} weighs {inertia.mass:g} kg: given min_mass '
