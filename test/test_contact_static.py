@@ -93,19 +93,26 @@ def test_the_barrier_gradient_against_a_shape_matches_finite_differences(region)
                                    atol=1e-6 * np.abs(fd_hessian).max())
 
 
-def test_a_box_rests_on_a_table_at_the_barrier_equilibrium():
-    sim = Stepper(_scene(TABLE, {'shape': {'box': [0.1, 0.1, 0.1]},
-                                 'position': [0.2, -0.1, 0.12]}))
+def _rest_box_on(fixed: dict, top: float):
+    """A 0.1 m box dropped 2 cm onto ``fixed`` (its top at z = ``top``): it must rest on its
+    four corners at the barrier's equilibrium, the contacts holding its weight on that top."""
+    sim = Stepper(_scene(fixed, {'shape': {'box': [0.1, 0.1, 0.1]},
+                                 'position': [0.1, -0.05, top + 0.07]}))
     for _ in range(300):
         sim.step()
         assert sim.stats['min_distance'] > 0.0
     assert sim.stats['contacts'] == 4
-    assert sim.body_q[1][2] == pytest.approx(0.1 + resting_distance(G / 4, D_HAT, 1e9),
+    assert sim.body_q[1][2] == pytest.approx(top + 0.05 + resting_distance(G / 4, D_HAT, 1e9),
                                              abs=1e-6)
-    contacts = sim.contacts                    # at rest: the table holds the box's weight
-    assert {(c['body'], c['other']) for c in contacts} == {('thing', 'table')}
+    contacts = sim.contacts
+    assert {(c['body'], c['other']) for c in contacts} == {('thing', fixed['name'])}
     assert sum(c['normal_force'] for c in contacts) == pytest.approx(G, rel=1e-4)
-    assert all(c['point'][2] == pytest.approx(0.05) for c in contacts)   # on the table top
+    assert all(c['point'][2] == pytest.approx(top) for c in contacts)
+    return sim
+
+
+def test_a_box_rests_on_a_table_at_the_barrier_equilibrium():
+    _rest_box_on(TABLE, 0.05)
 
 
 def test_a_ball_rests_on_the_end_of_a_standing_cylinder():
@@ -168,3 +175,57 @@ def test_after_a_reset_the_contacts_are_those_of_a_fresh_start():
         assert np.array_equal(a['friction_force'], np.zeros(3))
         assert a['normal_force'] == b['normal_force']
         np.testing.assert_array_equal(a['friction_force'], b['friction_force'])
+
+
+def _write_obj(path, vertices, faces):
+    path.write_text(''.join(f'v {float(x)!r} {float(y)!r} {float(z)!r}\n' for x, y, z in vertices)
+                    + ''.join(f'f {a + 1} {b + 1} {c + 1}\n' for a, b, c in faces))
+
+
+def test_a_box_rests_on_a_fixed_mesh_floor_at_the_barrier_equilibrium(tmp_path):
+    """Two triangles make a 1 m square floor at z = 0.1 on a fixed body: a static mesh."""
+    _write_obj(tmp_path / 'floor.obj', [[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0],
+                                        [-0.5, 0.5, 0]], [[0, 1, 2], [0, 2, 3]])
+    floor = {'name': 'floor', 'fixed': True, 'mass': 1.0, 'position': [0.0, 0.0, 0.1],
+             'collision': [{'mesh': {'uri': str(tmp_path / 'floor.obj')}}]}
+    assert _rest_box_on(floor, 0.1)._host.shape_kind.tolist() == [5, 5]
+
+
+@pytest.mark.parametrize('where', [[0.1, 0.1, 0.026], [0.52, 0.5, 0.015],
+                                   [-0.015, -0.017, 0.013]])          # face, edge, vertex
+def test_the_barrier_gradient_against_a_triangle_matches_finite_differences(tmp_path, where):
+    _write_obj(tmp_path / 'tri.obj', [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    fixed = {'name': 'tri', 'fixed': True, 'mass': 1.0,
+             'collision': [{'mesh': {'uri': str(tmp_path / 'tri.obj')}}]}
+    scene = _scene(fixed, {'shape': {'sphere': {'radius': 0.02}}, 'position': where})
+    scene = scene.model_copy(update={'gravity': (0.0, 0.0, 0.0)})
+    with_contact, without = Stages(scene), Stages(scene.model_copy(update={'contact': None}))
+    q = with_contact.host.body_q0.copy()
+    gradient, hessian, fd_gradient, fd_hessian = contact_terms(with_contact, without, q,
+                                                               q + 1e-4, step=1e-7, row=1)
+    assert np.abs(fd_gradient).max() > 1e-3
+    np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
+                               atol=1e-6 * np.abs(fd_gradient).max())
+    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()
+
+
+def test_a_large_static_mesh_is_reduced_with_a_warning_naming_the_body(tmp_path):
+    import trimesh
+
+    from affine_joint_sim.physics.mesh_points import MAX_STATIC_TRIANGLES
+    from affine_joint_sim.sim_warnings import SimulationWarning
+    rock = trimesh.creation.icosphere(subdivisions=3, radius=0.2)          # 1280 faces
+    rock.export(tmp_path / 'rock.stl')
+    fixed = {'name': 'rock', 'fixed': True, 'mass': 1.0,
+             'collision': [{'mesh': {'uri': str(tmp_path / 'rock.stl')}}]}
+    scene = _scene(fixed, {'shape': {'sphere': {'radius': 0.02}}, 'position': [0, 0, 0.3]})
+    with pytest.warns(SimulationWarning, match=r"body 'rock' \(collision\[0\]\): collision mesh "
+                                               r'.* has 1280 triangles; static contact uses'):
+        sim = Stepper(scene)
+    assert 20 <= len(sim._host.shape_kind) <= MAX_STATIC_TRIANGLES
+    touched = 0
+    for _ in range(100):
+        sim.step()
+        assert sim.stats['min_distance'] > 0.0
+        touched = max(touched, sim.stats['contacts'])
+    assert touched >= 1                                 # the ball lands on the rock

@@ -123,7 +123,8 @@ def test_a_large_mesh_is_drawn_decimated_keeping_its_outline():
     frame) and one over it as a box."""
     import trimesh
 
-    from affine_joint_sim.viz.render import MESH_FACES, decimated
+    from affine_joint_sim.meshes import decimated
+    from affine_joint_sim.viz.render import MESH_FACES
 
     sphere = trimesh.creation.uv_sphere(radius=0.05, count=[30, 30])
     triangles = decimated(np.asarray(sphere.vertices), np.asarray(sphere.faces), MESH_FACES)

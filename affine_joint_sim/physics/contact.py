@@ -44,12 +44,55 @@ def build(t) -> SimpleNamespace:
         return out
 
     @wp.func
+    def closest_on_triangle(x: vec3, a: vec3, b: vec3, c: vec3):
+        """The point of triangle abc nearest to x [m] (by the Voronoi region x is in: a
+        vertex, an edge or the face)."""
+        ab = b - a
+        ac = c - a
+        d1 = wp.dot(ab, x - a)
+        d2 = wp.dot(ac, x - a)
+        d3 = wp.dot(ab, x - b)
+        d4 = wp.dot(ac, x - b)
+        d5 = wp.dot(ab, x - c)
+        d6 = wp.dot(ac, x - c)
+        vc = d1 * d4 - d3 * d2
+        vb = d5 * d2 - d1 * d6
+        va = d3 * d6 - d5 * d4
+        nearest = a
+        if d1 <= zero and d2 <= zero:
+            nearest = a
+        elif d3 >= zero and d4 <= d3:
+            nearest = b
+        elif d6 >= zero and d5 <= d6:
+            nearest = c
+        elif vc <= zero and d1 >= zero and d3 <= zero:
+            nearest = a + (d1 / (d1 - d3)) * ab
+        elif vb <= zero and d2 >= zero and d6 <= zero:
+            nearest = a + (d2 / (d2 - d6)) * ac
+        elif va <= zero and d4 - d3 >= zero and d5 - d6 >= zero:
+            nearest = b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b)
+        else:
+            total = va + vb + vc
+            nearest = a + (vb / total) * ab + (vc / total) * ac
+        return nearest
+
+    @wp.func
     def shape_separation(model: Model, x: vec3, s: int):
         """(signed distance [m] of the world point x to shape s's surface, negative inside;
-        its unit outward direction n, the distance's gradient in x)."""
+        its unit outward direction n, the distance's gradient in x). A triangle (kind 5, its
+        vertices the columns of shape_rotation) has no inside: its distance is ≥ 0."""
         rot = model.shape_rotation[s]
         size = model.shape_size[s]
         kind = model.shape_kind[s]
+        if kind == 5:
+            gap = x - closest_on_triangle(x, vec3(rot[0, 0], rot[1, 0], rot[2, 0]),
+                                          vec3(rot[0, 1], rot[1, 1], rot[2, 1]),
+                                          vec3(rot[0, 2], rot[1, 2], rot[2, 2]))
+            length = wp.length(gap)
+            away = vec3(zero, zero, one)
+            if length > zero:
+                away = gap / length
+            return length, away
         local = wp.transpose(rot) @ (x - model.shape_center[s])
         d = zero
         n = vec3(zero, zero, one)

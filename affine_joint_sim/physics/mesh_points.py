@@ -15,12 +15,15 @@ import warnings
 
 import numpy as np
 
+from affine_joint_sim.meshes import decimated
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['MAX_MESH_POINTS', 'mesh_points', 'reduce_points']
+__all__ = ['MAX_MESH_POINTS', 'MAX_STATIC_TRIANGLES', 'mesh_points', 'mesh_triangles',
+           'reduce_points']
 
 MAX_MESH_POINTS = 64
+MAX_STATIC_TRIANGLES = 256   # a fixed body's mesh: every contact point is tested against each
 _DIRECTIONS = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
                if (i, j, k) != (0, 0, 0)]
 
@@ -28,17 +31,8 @@ _DIRECTIONS = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0
 def mesh_points(path: str, scale, where: str) -> np.ndarray:
     """The contact points (n, 3) [m, in the geometry's frame] of the mesh file at ``path``
     scaled per axis by ``scale``; SceneError naming ``where`` if it cannot be read."""
-    import trimesh
-
-    try:
-        mesh = trimesh.load(path, force='mesh', process=False)
-        vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    except Exception as exc:     # trimesh raises many kinds for a bad or unknown file
-        raise SceneError(f'{where}: cannot read collision mesh {path} '
-                         f'({type(exc).__name__}: {exc})') from None
-    if vertices.ndim != 2 or len(vertices) == 0 or not np.isfinite(vertices).all():
-        raise SceneError(f'{where}: collision mesh {path} has no finite vertices')
-    points = np.unique(vertices * np.asarray(scale, dtype=np.float64), axis=0)
+    vertices, _ = _load(path, scale, where)
+    points = np.unique(vertices, axis=0)
     if len(points) <= MAX_MESH_POINTS:
         return points
     kept, gap = reduce_points(points, MAX_MESH_POINTS)
@@ -48,6 +42,43 @@ def mesh_points(path: str, scale, where: str) -> np.ndarray:
                   'one kept)',
                   SimulationWarning, stacklevel=4)
     return kept
+
+
+def mesh_triangles(path: str, scale, where: str) -> np.ndarray:
+    """The triangles (n, 3, 3) [m, in the geometry's frame] of the mesh file at ``path``
+    scaled per axis by ``scale``, at most ``MAX_STATIC_TRIANGLES`` (more: vertex clustering,
+    with a warning), degenerate ones dropped; SceneError naming ``where`` if it has none."""
+    vertices, faces = _load(path, scale, where)
+    triangles = vertices[faces] if len(faces) <= MAX_STATIC_TRIANGLES else \
+        decimated(vertices, faces, MAX_STATIC_TRIANGLES)
+    if len(faces) > MAX_STATIC_TRIANGLES:
+        warnings.warn(f'{where}: collision mesh {path} has {len(faces)} triangles; static '
+                      f'contact uses {len(triangles)} (vertex clustering: the outline stays, '
+                      'small detail goes)', SimulationWarning, stacklevel=4)
+    area = np.linalg.norm(np.cross(triangles[:, 1] - triangles[:, 0],
+                                   triangles[:, 2] - triangles[:, 0]), axis=1)
+    triangles = triangles[area > 1e-12 * max(float(area.max(initial=0.0)), 1e-300)]
+    if not len(triangles):
+        raise SceneError(f'{where}: collision mesh {path} has no triangles (a static mesh '
+                         'touches with its faces)')
+    return triangles
+
+
+def _load(path: str, scale, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (n, 3) scaled [m], faces (k, 3)) of a mesh file; SceneError naming ``where``
+    if it cannot be read or has no finite vertices."""
+    import trimesh
+
+    try:
+        mesh = trimesh.load(path, force='mesh', process=False)
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    except Exception as exc:     # trimesh raises many kinds for a bad or unknown file
+        raise SceneError(f'{where}: cannot read collision mesh {path} '
+                         f'({type(exc).__name__}: {exc})') from None
+    if vertices.ndim != 2 or len(vertices) == 0 or not np.isfinite(vertices).all():
+        raise SceneError(f'{where}: collision mesh {path} has no finite vertices')
+    return vertices * np.asarray(scale, dtype=np.float64), faces
 
 
 def reduce_points(points: np.ndarray, count: int) -> tuple[np.ndarray, float]:

@@ -1,24 +1,24 @@
 """Fixed bodies' collision geometry as static shapes (README.md#contact), host side.
 
 A fixed body with ``collision`` is world geometry: each of its boxes, spheres, capsules and
-cylinders becomes a static shape at its world pose at t = 0 (a fixed body never moves). Moving
-bodies touch it with their contact points: the distance of a point to a convex shape is exact
-(``shape_distance`` here, ``contact.shape_separation`` in the kernel). A fixed body's mesh is
-not static geometry yet: it is said once and left out. Which points may touch which shape
-follows the articulations (``Scene.articulations``; ``contact_model`` decides).
+cylinders becomes a static shape at its world pose at t = 0 (a fixed body never moves), and
+each triangle of its meshes one too (at most ``MAX_STATIC_TRIANGLES`` a mesh). Moving bodies
+touch it with their contact points: the distance of a point to a convex shape, a triangle
+included, is exact (``shape_distance`` here, ``contact.shape_separation`` in the kernel).
+Which points may touch which shape follows the articulations (``Scene.articulations``;
+``contact_model`` decides).
 """
 
-import warnings
 
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
+from affine_joint_sim.physics.mesh_points import mesh_triangles
 from affine_joint_sim.rotations import rpy_matrix
-from affine_joint_sim.sim_warnings import SimulationWarning
 
 __all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_separation', 'shape_distance']
 
-SHAPE_KINDS = {'box': 1, 'sphere': 2, 'capsule': 3, 'cylinder': 4}
+SHAPE_KINDS = {'box': 1, 'sphere': 2, 'capsule': 3, 'cylinder': 4, 'triangle': 5}
 
 
 def static_shapes(bodies, q0: np.ndarray, geometries_of) -> tuple[dict, list[int], list[str]]:
@@ -33,15 +33,25 @@ def static_shapes(bodies, q0: np.ndarray, geometries_of) -> tuple[dict, list[int
         geometries = geometries_of(body)
         for k, geometry in enumerate(geometries):
             name = body.name if len(geometries) == 1 else f'{body.name} (collision[{k}])'
+            axes = pm.matmul(q0[b, 3:].reshape(3, 3), rpy_matrix(*geometry.origin.rpy))
+            centre = q0[b, :3] + pm.matmul(q0[b, 3:].reshape(3, 3),
+                                           np.array(geometry.origin.xyz, float))
             if geometry.kind == 'mesh':
-                warnings.warn(f'body {body.name!r}: a fixed body\'s collision mesh is not static '
-                              'geometry yet (boxes, spheres, capsules and cylinders are): it is '
-                              'left out', SimulationWarning, stacklevel=4)
+                mesh = geometry.mesh
+                for triangle in mesh_triangles(mesh.path or mesh.uri, mesh.scale,
+                                               f'body {body.name!r} (collision[{k}])'):
+                    corners = np.array([centre + pm.matmul(axes, v) for v in triangle])
+                    middle = corners.sum(axis=0) / 3.0
+                    kinds.append(SHAPE_KINDS['triangle'])
+                    rotations.append(corners.T)           # the vertices as columns
+                    centers.append(middle)
+                    sizes.append([max(pm.norm(v - middle) for v in corners), 0.0, 0.0])
+                    owners.append(b)
+                    names.append(name)
                 continue
-            axes = q0[b, 3:].reshape(3, 3)
             kinds.append(SHAPE_KINDS[geometry.kind])
-            rotations.append(pm.matmul(axes, rpy_matrix(*geometry.origin.rpy)))
-            centers.append(q0[b, :3] + pm.matmul(axes, np.array(geometry.origin.xyz, float)))
+            rotations.append(axes)
+            centers.append(centre)
             sizes.append(_size(geometry))
             owners.append(b)
             names.append(name)
@@ -66,6 +76,10 @@ def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.nd
     inside; the unit outward direction n, the distance's gradient), as the kernel computes
     them (``contact.shape_separation``)."""
     rotation = np.asarray(rotation)
+    if kind == SHAPE_KINDS['triangle']:
+        gap = np.asarray(x) - _closest_on_triangle(np.asarray(x), *rotation.T)
+        length = pm.norm(gap)
+        return length, gap / length if length > 0.0 else np.array([0.0, 0.0, 1.0])
     local = pm.matmul(rotation.T, np.asarray(x) - np.asarray(center))
     size = np.asarray(size)
     sign = np.where(local < 0.0, -1.0, 1.0)
@@ -93,6 +107,30 @@ def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.nd
     length = pm.norm(gap)
     n = gap / length if length > 0.0 else np.array([0.0, 0.0, 1.0])
     return length - size[0], pm.matmul(rotation, n)
+
+
+def _closest_on_triangle(x, a, b, c) -> np.ndarray:
+    """The point of triangle abc nearest to x, by the Voronoi region x is in (the kernel's
+    ``closest_on_triangle``)."""
+    ab, ac = b - a, c - a
+    d1, d2 = pm.dot(ab, x - a), pm.dot(ac, x - a)
+    d3, d4 = pm.dot(ab, x - b), pm.dot(ac, x - b)
+    d5, d6 = pm.dot(ab, x - c), pm.dot(ac, x - c)
+    vc, vb, va = d1 * d4 - d3 * d2, d5 * d2 - d1 * d6, d3 * d6 - d5 * d4
+    if d1 <= 0.0 and d2 <= 0.0:
+        return a
+    if d3 >= 0.0 and d4 <= d3:
+        return b
+    if d6 >= 0.0 and d5 <= d6:
+        return c
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        return a + d1 / (d1 - d3) * ab
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        return a + d2 / (d2 - d6) * ac
+    if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
+        return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b)
+    total = va + vb + vc
+    return a + vb / total * ab + vc / total * ac
 
 
 def shape_distance(kind: int, rotation, center, size, x) -> float:
