@@ -143,3 +143,33 @@ def test_batched_quadrupeds_on_two_threads_equal_single_runs_bit_for_bit():
     for k, single in enumerate(singles):
         np.testing.assert_array_equal(batch.body_q[k], single.body_q)
     assert (batch.stats['contacts'] == 4).all()
+
+
+@pytest.mark.parametrize('mu', [0.2, 0.5, 0.8])
+def test_the_friction_grid_a_block_sticks_below_tan_alpha_mu_and_slides_above(mu):
+    """For each slope α: tan α < μ, the block moves less than ε_v × time (it creeps below
+    the smoothed friction's ε_v); tan α > μ, it slides at g (sin α − μ cos α) within 3 %."""
+    eps_velocity, dt, steps = 1e-3, 0.01, 150
+    for tilt_deg in (10.0, 20.0, 30.0, 40.0):
+        tilt = math.radians(tilt_deg)
+        normal = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+        down = np.array([math.cos(tilt), 0.0, -math.sin(tilt)])
+        scene = Scene.from_dict({
+            'dt': dt, 'ground': {'point': [0.0, 0.0, 0.0], 'normal': list(normal)},
+            'contact': {'friction': mu, 'eps_velocity': eps_velocity},
+            'bodies': [_brick(list((0.025 + 6.4e-4) * normal),
+                              orientation={'rpy': [0.0, tilt, 0.0]})]})
+        sim = Stepper(scene)
+        start = sim.body_q[0][:3] @ down
+        speeds = []
+        for _ in range(steps):
+            sim.step()
+            assert sim.stats['min_distance'] > 0.0
+            speeds.append(sim.body_qdot[0][:3] @ down)
+        moved = sim.body_q[0][:3] @ down - start
+        if math.tan(tilt) < mu:
+            assert abs(moved) < eps_velocity * steps * dt, (mu, tilt_deg, moved)
+        else:
+            slope = (speeds[-1] - speeds[steps // 2]) / ((steps - 1 - steps // 2) * dt)
+            assert slope == pytest.approx(G * (math.sin(tilt) - mu * math.cos(tilt)), rel=0.03), \
+                (mu, tilt_deg)
