@@ -29,7 +29,7 @@ def build(t) -> SimpleNamespace:
     """Warp functions of contact for the types namespace ``t``."""
     vec3, vec12, scalar = t.vec3, t.vec12, t.scalar
     zero, half, one, two, three, four = t.zero, t.half, t.one, t.two, t.three, t.four
-    Model, Scratch = t.structs.Model, t.structs.Scratch
+    Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
     world_point, jacobian_transpose, log = t.world_point, t.jacobian_transpose, t.log
     affine = t.affine
     keep = scalar(1.0 - STEP_SLACK)
@@ -201,10 +201,13 @@ def build(t) -> SimpleNamespace:
         return one / inverse
 
     @wp.func
-    def lag_friction(model: Model, scratch: Scratch, env: int):
-        """Per pair closer than d̂ at q_n, frozen for the step: the normal force
-        dt² λ = −dt² db/dd into scratch.friction_normal (friction's weight) and the contact
-        damping c·dt = 2ζ √(b''(d) m_eff) dt into scratch.normal_damping (0 for the others)."""
+    def lag_friction(model: Model, state: State, scratch: Scratch, env: int):
+        """Per pair closer than d̂ at q_n, frozen for the step: the normal force dt² λ into
+        scratch.friction_normal (friction's weight: the barrier's −dt² db/dd plus the last
+        step's damping force c (d_{n−1} − d_n)/dt while the pair was approaching, at most as
+        much again as the barrier's: friction sees the load the damper carries while it
+        settles, not an impact's spike) and the contact damping c·dt = 2ζ √(b''(d) m_eff) dt
+        into scratch.normal_damping (0 for the others)."""
         things = statics(model)
         for i in range(model.point_body.shape[0]):
             b = model.point_body[i]
@@ -212,11 +215,15 @@ def build(t) -> SimpleNamespace:
             for g in range(things):
                 force = zero
                 damping = zero
+                last_damping = scratch.normal_damping[env, i * things + g]
                 if model.pair_on[i * things + g] != 0:
                     d, n = distance(model, qb, i, g)
                     if d > zero and d < model.contact_d_hat:
                         e, b1, b2 = barrier(model, d)
                         force = -model.dt * model.dt * b1
+                        if last_damping > zero:
+                            d_prev, n_prev = distance(model, state.q_prev[env, b], i, g)
+                            force += wp.min(last_damping * wp.max(d_prev - d, zero), force)
                         if model.contact_damping > zero:
                             mass = point_mass(model, b, qb, contact_rest(model, qb, i, n), n)
                             damping = (two * model.contact_damping

@@ -34,7 +34,7 @@ def build(t) -> SimpleNamespace:
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env)
         predict(model, state, scratch, env, bdf2, force_scale)
         if model.has_contact != 0:
-            lag_friction(model, scratch, env)
+            lag_friction(model, state, scratch, env)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
         iterations, halvings, failures, converged, residual = newton(
             model, state, control, scratch, env, kinetic_scale, bdf2)
