@@ -232,6 +232,15 @@ def build(t) -> SimpleNamespace:
                 scratch.normal_damping[env, i * things + g] = damping
 
     @wp.func
+    def approach(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                 i: int, g: int):
+        """(min(d(q) − d(q_n), 0) [m]: how far pair (i, g) closed since the step's start,
+        0 while it separates; its normal n at q)."""
+        d, n = distance(model, q[env, model.point_body[i]], i, g)
+        d_n, n_n = distance(model, scratch.q_n[env, model.point_body[i]], i, g)
+        return wp.min(d - d_n, zero), n
+
+    @wp.func
     def damping_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
                        env: int):
         """Σ ½ c dt min(d(q) − d(q_n), 0)² over the pairs with lagged damping [J·s²]: a
@@ -240,14 +249,11 @@ def build(t) -> SimpleNamespace:
         energy = zero
         things = statics(model)
         for i in range(model.point_body.shape[0]):
-            b = model.point_body[i]
             for g in range(things):
                 weight = scratch.normal_damping[env, i * things + g]
                 if weight > zero:
-                    d, n = distance(model, q[env, b], i, g)
-                    d_n, n_n = distance(model, scratch.q_n[env, b], i, g)
-                    approach = wp.min(d - d_n, zero)
-                    energy += half * weight * approach * approach
+                    closed, n = approach(model, q, scratch, env, i, g)
+                    energy += half * weight * closed * closed
         return energy
 
     @wp.func
@@ -262,11 +268,10 @@ def build(t) -> SimpleNamespace:
             for g in range(things):
                 weight = scratch.normal_damping[env, i * things + g]
                 if weight > zero:
-                    d, n = distance(model, q[env, b], i, g)
-                    d_n, n_n = distance(model, scratch.q_n[env, b], i, g)
-                    if d < d_n:
+                    closed, n = approach(model, q, scratch, env, i, g)
+                    if closed < zero:
                         w = jacobian_transpose(model.point_rest[i], n)
-                        scratch.rhs[env, b] -= weight * (d - d_n) * w
+                        scratch.rhs[env, b] -= weight * closed * w
                         if hessian != 0:
                             scratch.hessian[env, b] += wp.outer(weight * w, w)
 
