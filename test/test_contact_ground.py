@@ -13,7 +13,8 @@ from affine_joint_sim.physics.evaluate import Stages
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper
-from helpers.barrier import contact_terms, resting_distance
+from helpers.barrier import (assert_matches_differences, assert_psd, contact_terms,
+                             resting_distance)
 
 G = 9.81
 SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
@@ -114,11 +115,9 @@ def test_the_barrier_gradient_and_hessian_match_finite_differences():
     gradient, hessian, fd_gradient, fd_hessian = contact_terms(with_contact, without, q,
                                                                 q_tilde, step=1e-7)
     assert np.abs(fd_gradient).max() > 0.0
-    np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
-                               atol=1e-6 * np.abs(fd_gradient).max())
-    np.testing.assert_allclose(hessian, fd_hessian, rtol=1e-5,
-                               atol=1e-6 * np.abs(fd_hessian).max())
-    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()
+    assert_matches_differences(gradient, fd_gradient)
+    assert_matches_differences(hessian, fd_hessian)
+    assert_psd(hessian)
 
 
 def test_a_penetrating_state_has_infinite_energy():
@@ -339,12 +338,10 @@ def test_friction_and_damping_gradients_and_hessians_match_finite_differences(sl
     q_tilde = q.copy()
     gradient, hessian, fd_gradient, fd_hessian = contact_terms(with_contact, without, q,
                                                                 q_tilde, step=1e-8)
-    np.testing.assert_allclose(gradient, fd_gradient, rtol=1e-5,
-                               atol=1e-6 * np.abs(fd_gradient).max())
+    assert_matches_differences(gradient, fd_gradient)
     # IPC's closed forms are the exact Hessian of the smoothed friction, and PSD
-    np.testing.assert_allclose(hessian, fd_hessian, rtol=1e-4,
-                               atol=1e-5 * np.abs(fd_hessian).max())
-    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()
+    assert_matches_differences(hessian, fd_hessian, rtol=1e-4, atol_share=1e-5)
+    assert_psd(hessian)
 
 
 def test_the_contact_record_keeps_the_smallest_distance_and_the_most_contacts():

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-__all__ = ['resting_distance', 'contact_terms']
+__all__ = ['resting_distance', 'contact_terms', 'assert_matches_differences', 'assert_psd']
 
 
 def resting_distance(force, d_hat, kappa):
@@ -45,3 +45,15 @@ def contact_terms(with_contact, without, q, q_tilde, step, row=0):
         fd_gradient[i] = (energy_at(q + e) - energy_at(q - e)) / (2 * step)
         fd_hessian[:, i] = (gradient_at(q + e) - gradient_at(q - e)) / (2 * step)
     return gradient_at(q), hessian, fd_gradient, fd_hessian
+
+
+def assert_matches_differences(value, differences, rtol=1e-5, atol_share=1e-6):
+    """``value`` (a gradient or Hessian) equals its central differences within ``rtol``, or
+    ``atol_share`` of their largest entry."""
+    np.testing.assert_allclose(value, differences, rtol=rtol,
+                               atol=atol_share * np.abs(differences).max())
+
+
+def assert_psd(hessian):
+    """The symmetric part of ``hessian`` has no eigenvalue below −1e-9 of its largest entry."""
+    assert np.linalg.eigvalsh(0.5 * (hessian + hessian.T)).min() > -1e-9 * np.abs(hessian).max()
