@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from affine_joint_sim.physics.contact import STEP_SLACK
-from affine_joint_sim.physics.contact_model import world_distances
+from affine_joint_sim.physics.pair_geometry import point_distances as world_distances
 from affine_joint_sim.physics.evaluate import Stages
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import Scene

@@ -218,7 +218,7 @@ def test_a_large_static_mesh_is_reduced_with_a_warning_naming_the_body(tmp_path)
              'collision': [{'mesh': {'uri': str(tmp_path / 'rock.stl')}}]}
     scene = _scene(fixed, {'shape': {'sphere': {'radius': 0.02}}, 'position': [0, 0, 0.3]})
     with pytest.warns(SimulationWarning, match=r"body 'rock' \(collision\[0\]\): collision mesh "
-                                               r'.* has 1280 triangles; static contact uses'):
+                                               r'.* has 1280 triangles; contact uses'):
         sim = Stepper(scene)
     assert 20 <= len(sim._host.shape_kind) <= MAX_STATIC_TRIANGLES
     touched = 0

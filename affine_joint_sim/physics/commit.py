@@ -144,9 +144,10 @@ def build(t) -> SimpleNamespace:
         return strain
 
     @wp.func
-    def write_stats(model: Model, state: State, env: int, chunk: int, iterations: int,
-                    halvings: int, converged: int, failures: int, aliased: int, dropped: int,
-                    finite: int, rejected: int, residual: scalar, gap: scalar, strain: scalar):
+    def write_stats(model: Model, state: State, scratch: Scratch, env: int, chunk: int,
+                    iterations: int, halvings: int, converged: int, failures: int, aliased: int,
+                    dropped: int, finite: int, rejected: int, residual: scalar, gap: scalar,
+                    strain: scalar):
         """The step's statistics, addressed by the names of physics.fields (with contact: the
         smallest distance to a static thing and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
@@ -163,7 +164,7 @@ def build(t) -> SimpleNamespace:
         state.stats_float[env, s_gap] = gap
         state.stats_float[env, s_strain] = strain
         if model.has_contact != 0:
-            nearest, contacts = touching(model, state.q, env)
+            nearest, contacts = touching(model, state.q, scratch, env)
             state.stats_float[env, s_distance] = nearest
             state.stats_int[env, s_contacts] = contacts
             state.nearest_seen[env] = wp.min(state.nearest_seen[env], nearest)

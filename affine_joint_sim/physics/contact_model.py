@@ -18,13 +18,14 @@ import numpy as np
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
 from affine_joint_sim.physics.mesh_points import mesh_points
-from affine_joint_sim.physics.static_shapes import shape_distance, static_shapes
+from affine_joint_sim.physics.pair_geometry import pair_distances, pair_gap
+from affine_joint_sim.physics.primitives import moving_surface, static_surfaces
+from affine_joint_sim.physics.static_shapes import static_shapes
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['CYLINDER_RIM_POINTS', 'combined_friction', 'contact_arrays', 'tangent',
-           'world_distances']
+__all__ = ['CYLINDER_RIM_POINTS', 'combined_friction', 'contact_arrays', 'tangent']
 
 CYLINDER_RIM_POINTS = 16
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)
@@ -95,24 +96,6 @@ def combined_friction(mu_a: float, mu_b: float) -> float:
     return 0.0 if mu_a + mu_b == 0.0 else 2.0 * mu_a * mu_b / (mu_a + mu_b)
 
 
-def world_distances(q, arrays) -> np.ndarray:
-    """Distances [m], shape (points, planes + shapes), of the contact points at states q
-    (n_bodies, 12) to the half-spaces, then to the static shapes (``arrays``: the contact
-    model fields)."""
-    planes, shapes = len(arrays['plane_offset']), len(arrays['shape_kind'])
-    out = np.zeros((len(arrays['point_body']), planes + shapes))
-    for i, (b, rest, radius) in enumerate(zip(arrays['point_body'], arrays['point_rest'],
-                                              arrays['point_radius'])):
-        x = q[b, :3] + pm.matmul(q[b, 3:].reshape(3, 3), rest)
-        for g in range(planes):
-            out[i, g] = pm.dot(arrays['plane_normal'][g], x) - arrays['plane_offset'][g] - radius
-        for s in range(shapes):
-            out[i, planes + s] = shape_distance(
-                arrays['shape_kind'][s], arrays['shape_rotation'][s], arrays['shape_center'][s],
-                arrays['shape_size'][s], x) - radius
-    return out
-
-
 def _geometries(body) -> list[Collision]:
     """A body's collision geometries (its own shape for ``collision: shape``)."""
     return [_shape_collision(body.shape)] if body.collision == 'shape' else body.collision
@@ -120,12 +103,15 @@ def _geometries(body) -> list[Collision]:
 
 def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
     """(the contact model fields of ``scene`` with initial states ``q0`` (n_bodies, 12), the
-    name of each static thing: ``ground`` or ``ground[k]``, then the fixed bodies); a scene
-    without ``contact`` and ``ground`` gets empty tables and has_contact 0. Raises SceneError
-    if a contact point starts on or inside a half-space or a static shape."""
+    name of each static thing: ``ground`` or ``ground[k]``, then the fixed bodies, then the
+    fixed body of each static edge and each static vertex); a scene without ``contact`` and
+    ``ground`` gets empty tables and has_contact 0. Raises SceneError if a pair starts
+    touching or a contact point inside a half-space or a static shape."""
     on = scene.contact is not None or scene.ground is not None
     settings = scene.contact or Contact()
     bodies, rests, radii = [], [], []
+    shapes, owners, shape_names = static_shapes(scene.bodies if on else [], q0, _geometries)
+    moving = _Moving()
     for b, body in enumerate(scene.bodies if on else []):
         if body.collision is None or body.fixed:
             continue
@@ -136,58 +122,112 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
                 bodies.append(b)
                 rests.append(rest)
                 radii.append(radius)
+            if len(owners):             # edges and faces touch static shapes only
+                moving.add(b, moving_surface(geometry, where))
     if on and not scene.solver.line_search:
         warnings.warn('solver.line_search is false, but a scene with contact always searches '
                       '(a step must never end inside the ground)', SimulationWarning,
                       stacklevel=3)
     normals, offsets, names = _half_spaces(scene) if on else (np.zeros((0, 3)), np.zeros(0), [])
-    shapes, owners, shape_names = static_shapes(scene.bodies if on else [], q0, _geometries)
+    fixed = _Fixed(*static_surfaces(shapes, owners))
     body_mu = [settings.friction if body.friction is None else body.friction
                for body in scene.bodies]
     static_mu = [settings.friction if half.friction is None else half.friction
                  for half in (scene.ground or [])] if on else []
     static_mu += [body_mu[f] for f in owners]
+    group, jointed = scene.articulations()
+
+    def may_touch(b, f):
+        if f is None or group[b] != group[f]:
+            return 1
+        return int(settings.self_collision and (b, f) not in jointed)
+
+    families = [(bodies, [None] * len(offsets) + list(owners)),
+                (moving.edge_body, fixed.edge_owner), (moving.face_body, fixed.vertex_owner)]
+    mu = [static_mu] + [[body_mu[f] for f in owners_] for _, owners_ in families[1:]]
     arrays = dict(has_contact=int(on), contact_d_hat=settings.d_hat,
                   contact_kappa=settings.kappa, contact_eps_velocity=settings.eps_velocity,
                   contact_damping=settings.damping,
                   plane_tangent=np.array([tangent(n) for n in normals]).reshape(-1, 3),
-                  pair_friction=np.array([combined_friction(body_mu[b], mu)
-                                          for b in bodies for mu in static_mu],
-                                         dtype=np.float64),
-                  pair_on=_pair_on(scene, settings, bodies, len(offsets), owners),
+                  pair_friction=np.array([combined_friction(body_mu[b], m)
+                                          for (moving_, _), mus in zip(families, mu)
+                                          for b in moving_ for m in mus], dtype=np.float64),
+                  pair_on=np.array([may_touch(b, f) for moving_, owners_ in families
+                                    for b in moving_ for f in owners_], dtype=np.int32),
                   point_body=np.array(bodies, dtype=np.int32),
                   point_rest=np.array(rests, dtype=np.float64).reshape(-1, 3),
                   point_radius=np.array(radii, dtype=np.float64),
-                  plane_normal=normals, plane_offset=offsets, **shapes)
-    _refuse_touching(scene, q0, arrays, names + shape_names)
-    return arrays, names + shape_names
+                  plane_normal=normals, plane_offset=offsets, **shapes,
+                  **moving.arrays(len(scene.bodies)),
+                  **fixed.arrays())
+    names += shape_names + [scene.bodies[f].name for f in fixed.edge_owner + fixed.vertex_owner]
+    _refuse_touching(scene, q0, arrays, names)
+    return arrays, names
 
 
-def _pair_on(scene, settings, bodies, planes: int, owners) -> np.ndarray:
-    """1 per (point, static thing) pair that may touch: every half-space; a shape unless it
-    belongs to the point's own articulation (then only with self_collision, and never to a
-    body jointed to the point's)."""
-    group, jointed = scene.articulations()
+class _Moving:
+    """The moving bodies' edges and faces, collected geometry by geometry."""
 
-    def may_touch(b, f):
-        if group[b] != group[f]:
-            return 1
-        return int(settings.self_collision and (b, f) not in jointed)
+    def __init__(self):
+        self.edge_body, self.edges, self.edge_radius = [], [], []
+        self.face_body, self.faces = [], []
 
-    return np.array([[1] * planes + [may_touch(b, f) for f in owners] for b in bodies],
-                    dtype=np.int32).reshape(-1)
+    def add(self, body: int, surface) -> None:
+        for a, b in surface.edges:
+            self.edge_body.append(body)
+            self.edges.append((surface.vertices[a], surface.vertices[b]))
+            self.edge_radius.append(surface.radius)
+        for face in surface.faces:
+            self.face_body.append(body)
+            self.faces.append(surface.vertices[face].T)        # the corners as columns
+
+    def arrays(self, bodies: int) -> dict:
+        ends = np.array(self.edges, dtype=np.float64).reshape(-1, 2, 3)
+        reach = np.zeros(bodies)
+        corners = list(zip(self.edge_body, ends[:, 0])) + list(zip(self.edge_body, ends[:, 1]))
+        corners += [(b, corner) for b, face in zip(self.face_body, self.faces) for corner in face.T]
+        for b, corner in corners:
+            reach[b] = max(reach[b], pm.norm(corner))
+        return dict(body_reach=reach, edge_body=np.array(self.edge_body, dtype=np.int32),
+                    edge_a=ends[:, 0], edge_b=ends[:, 1],
+                    edge_radius=np.array(self.edge_radius, dtype=np.float64),
+                    face_body=np.array(self.face_body, dtype=np.int32),
+                    face_rest=np.array(self.faces, dtype=np.float64).reshape(-1, 3, 3))
+
+
+class _Fixed:
+    """The static shapes' edges and vertices, with the fixed body owning each."""
+
+    def __init__(self, surfaces, owners):
+        self.edges, self.edge_radius, self.edge_owner = [], [], []
+        self.vertices, self.vertex_radius, self.vertex_owner = [], [], []
+        for surface, owner in zip(surfaces, owners):
+            for a, b in surface.edges:
+                self.edges.append((surface.vertices[a], surface.vertices[b]))
+                self.edge_radius.append(surface.radius)
+                self.edge_owner.append(owner)
+            for vertex in surface.vertices:
+                self.vertices.append(vertex)
+                self.vertex_radius.append(surface.radius)
+                self.vertex_owner.append(owner)
+
+    def arrays(self) -> dict:
+        ends = np.array(self.edges, dtype=np.float64).reshape(-1, 2, 3)
+        return dict(static_edge_a=ends[:, 0], static_edge_b=ends[:, 1],
+                    static_edge_radius=np.array(self.edge_radius, dtype=np.float64),
+                    static_vertex=np.array(self.vertices, dtype=np.float64).reshape(-1, 3),
+                    static_vertex_radius=np.array(self.vertex_radius, dtype=np.float64))
 
 
 def _refuse_touching(scene, q0, arrays, names) -> None:
-    """SceneError naming the body and the half-space or shape if a point that may touch it
-    starts at distance ≤ 0."""
-    if not len(arrays['point_body']) or not len(names):
+    """SceneError naming the body and the half-space, shape or fixed body if a pair that may
+    touch starts at distance ≤ 0."""
+    if not len(arrays['pair_on']):
         return
-    distances = world_distances(q0, arrays)
-    distances[arrays['pair_on'].reshape(distances.shape) == 0] = np.inf
-    i, g = np.unravel_index(int(np.argmin(distances)), distances.shape)
-    if distances[i, g] <= 0.0:
-        body = scene.bodies[arrays['point_body'][i]].name
-        raise SceneError(f'body {body!r} starts {-distances[i, g]:.6g} m inside {names[g]} '
-                         f'(distance {distances[i, g]:.6g} m): a scene with contact must '
-                         'start with nothing touching')
+    distances = pair_distances(q0, arrays)
+    p = int(np.argmin(distances))
+    if distances[p] <= 0.0:
+        gap = pair_gap(arrays, q0, p)
+        raise SceneError(f'body {scene.bodies[gap.body].name!r} starts {-gap.distance:.6g} m '
+                         f'inside {names[gap.static]} (distance {gap.distance:.6g} m): a scene '
+                         'with contact must start with nothing touching')

@@ -17,7 +17,8 @@ import math
 import numpy as np
 
 from affine_joint_sim.physics.contact_model import tangent
-from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_separation
+from affine_joint_sim.physics.pair_geometry import pair_gap, pair_weight
+from affine_joint_sim.physics.static_shapes import SHAPE_KINDS
 
 __all__ = ['barrier_energy', 'barrier_force', 'active_contacts']
 
@@ -35,16 +36,6 @@ def barrier_force(d: float, d_hat: float, kappa: float) -> float:
     return 2.0 * kappa * d * (2.0 * gap * math.log(big / big_hat) + gap * gap / big)
 
 
-def _separation(host, x, g: int):
-    """(distance of the world point x to static thing g, before any radius; its normal)."""
-    planes = len(host.plane_offset)
-    if g < planes:
-        return host.plane_normal[g] @ x - host.plane_offset[g], host.plane_normal[g]
-    s = g - planes
-    return shape_separation(host.shape_kind[s], host.shape_rotation[s], host.shape_center[s],
-                            host.shape_size[s], x)
-
-
 def _world(q_body, rest) -> np.ndarray:
     return q_body[:3] + q_body[3:].reshape(3, 3) @ rest
 
@@ -60,38 +51,42 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
     ``normal`` (unit, from the other towards the body), ``distance`` [m], ``normal_force``
     [N] and ``friction_force`` (3-vector [N, world], on the body).
     """
-    things = len(host.plane_offset) + len(host.shape_kind)
+    model = vars(host)
     dt2 = float(host.dt) ** 2
     out = []
-    for i, g in _candidates(host, q, friction_normal, normal_damping):
-        b, rest, radius = host.point_body[i], host.point_rest[i], host.point_radius[i]
-        pair = i * things + g
-        x = _world(q[b], rest)
-        centre_distance, normal = _separation(host, x, g)
-        d = centre_distance - radius
+    for pair in _candidates(host, q, friction_normal, normal_damping):
+        gap = pair_gap(model, q, pair)
+        d = gap.distance
         lagged = friction_normal[pair] > 0.0 or normal_damping[pair] > 0.0
         if not (0.0 < d < host.contact_d_hat or (lagged and d > 0.0)):
             continue
         force = np.zeros(3)
         if friction_normal[pair] > 0.0:
-            force = _friction(host, q, q_n, i, g, pair, friction_normal[pair] / dt2)
-        push = barrier_force(d, host.contact_d_hat, host.contact_kappa) \
-            if d < host.contact_d_hat else 0.0
+            force = _friction(host, q, q_n, pair, friction_normal[pair] / dt2)
+        push = pair_weight(model, q_n, pair) * barrier_force(
+            d, host.contact_d_hat, host.contact_kappa) if d < host.contact_d_hat else 0.0
         if normal_damping[pair] > 0.0:
-            d_n = _separation(host, _world(q_n[b], rest), g)[0] - radius
+            d_n = pair_gap(model, q_n, pair).distance
             push += normal_damping[pair] * max(d_n - d, 0.0) / dt2
-        out.append({'body': body_names[b], 'other': static_names[g],
-                    'point': x - normal * centre_distance, 'normal': np.asarray(normal),
+        out.append({'body': body_names[gap.body], 'other': static_names[gap.static],
+                    'point': gap.point, 'normal': np.asarray(gap.normal),
                     'distance': float(d), 'normal_force': push, 'friction_force': force})
     return out
 
 
-def _candidates(host, q, friction_normal, normal_damping) -> list[tuple[int, int]]:
-    """(point, static thing) pairs that may touch and may be closer than d̂, found for every
-    point at once (the exact distance to a half-space, a lower bound for a shape: the distance
-    to its centre less its bounding radius), and those with forces lagged at the step's start
-    (friction and damping act on them even once they are beyond d̂). The pairs are then
-    evaluated one by one."""
+def _candidates(host, q, friction_normal, normal_damping) -> list[int]:
+    """Pairs that may touch and may be closer than d̂, found for every pair of a family at
+    once by a lower bound of its distance (the exact distance to a half-space; between the
+    bounding spheres of a point and a shape, of two segments, of a triangle and a vertex),
+    and those with forces lagged at the step's start (friction and damping act on them even
+    once they are beyond d̂). The pairs are then evaluated one by one."""
+    near = np.concatenate([_near_points(host, q), _near_edges(host, q), _near_faces(host, q)])
+    near &= host.pair_on != 0
+    near |= (friction_normal > 0.0) | (normal_damping > 0.0)   # lagged: they acted on it
+    return [int(p) for p in np.flatnonzero(near)]
+
+
+def _near_points(host, q) -> np.ndarray:
     body, radius = host.point_body, host.point_radius
     x = q[body, :3] + np.einsum('nij,nj->ni', q[body, 3:].reshape(-1, 3, 3), host.point_rest)
     planes, shapes = len(host.plane_offset), len(host.shape_kind)
@@ -103,10 +98,36 @@ def _candidates(host, q, friction_normal, normal_damping) -> list[tuple[int, int
         near[:, planes + s] = (np.linalg.norm(x - host.shape_center[s], axis=1)
                                - _bounding_radius(host.shape_kind[s], host.shape_size[s])
                                - radius < host.contact_d_hat)
-    near &= host.pair_on.reshape(near.shape) != 0
-    near |= (friction_normal > 0.0).reshape(near.shape) | (normal_damping > 0.0).reshape(
-        near.shape)                         # lagged at the step's start: they acted on it
-    return [(int(i), int(g)) for i, g in np.argwhere(near)]
+    return near.reshape(-1)
+
+
+def _ball(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centres, radii) of spheres holding each row's points (k, m, 3)."""
+    centre = points.mean(axis=1)
+    return centre, np.linalg.norm(points - centre[:, None], axis=2).max(axis=1, initial=0.0)
+
+
+def _moved(q, bodies, rests) -> np.ndarray:
+    """World points (k, m, 3) of rest points ``rests`` (k, m, 3) on ``bodies`` (k,)."""
+    return q[bodies, None, :3] + np.einsum('kij,kmj->kmi', q[bodies, 3:].reshape(-1, 3, 3),
+                                           rests)
+
+
+def _near_edges(host, q) -> np.ndarray:
+    ends = _moved(q, host.edge_body, np.stack([host.edge_a, host.edge_b], axis=1))
+    centre, reach = _ball(ends)
+    other, other_reach = _ball(np.stack([host.static_edge_a, host.static_edge_b], axis=1))
+    gap = (np.linalg.norm(centre[:, None] - other[None], axis=2) - reach[:, None]
+           - other_reach[None] - host.edge_radius[:, None] - host.static_edge_radius[None])
+    return (gap < host.contact_d_hat).reshape(-1)
+
+
+def _near_faces(host, q) -> np.ndarray:
+    corners = _moved(q, host.face_body, np.transpose(host.face_rest, (0, 2, 1)))
+    centre, reach = _ball(corners)
+    gap = (np.linalg.norm(centre[:, None] - host.static_vertex[None], axis=2)
+           - reach[:, None] - host.static_vertex_radius[None])
+    return (gap < host.contact_d_hat).reshape(-1)
 
 
 def _bounding_radius(kind: int, size) -> float:
@@ -120,18 +141,20 @@ def _bounding_radius(kind: int, size) -> float:
     return float(math.hypot(size[0], size[1]))
 
 
-def _friction(host, q, q_n, i: int, g: int, pair: int, lam: float) -> np.ndarray:
-    """The friction force [N, world] on point i against static thing g: −μ λ (f1(y)/y) u."""
-    b, rest = host.point_body[i], host.point_rest[i]
-    _, normal = _separation(host, _world(q_n[b], rest), g)
-    if host.point_radius[i] > 0.0:      # the material point that touches, as the kernel
-        rest = rest - host.point_radius[i] * np.linalg.solve(q_n[b, 3:].reshape(3, 3), normal)
-    start = _world(q_n[b], rest)
-    t1 = host.plane_tangent[g] if g < len(host.plane_offset) else tangent(normal)
-    n = normal
+def _friction(host, q, q_n, pair: int, lam: float) -> np.ndarray:
+    """The friction force [N, world] of ``pair``: −μ λ (f1(y)/y) u, u the slip since q_n of
+    the material point that touches, in the basis lagged at q_n (the kernel's ``slip``)."""
+    start = pair_gap(vars(host), q_n, pair)
+    b, rest, n = start.body, start.rest, start.normal
+    if start.radius > 0.0:              # the material point that touches, as the kernel
+        rest = rest - start.radius * np.linalg.solve(q_n[b, 3:].reshape(3, 3), n)
+    things = len(host.plane_offset) + len(host.shape_kind)
+    g = pair - (pair // things) * things if things else 0
+    point_pair = pair < len(host.point_body) * things
+    t1 = host.plane_tangent[g] if point_pair and g < len(host.plane_offset) else tangent(n)
     t2 = np.array([n[1] * t1[2] - n[2] * t1[1], n[2] * t1[0] - n[0] * t1[2],
                    n[0] * t1[1] - n[1] * t1[0]])          # n × t₁ (np.cross costs 60 µs)
-    moved = _world(q[b], rest) - start
+    moved = _world(q[b], rest) - _world(q_n[b], rest)
     u1, u2 = float(t1 @ moved), float(t2 @ moved)
     y = math.hypot(u1, u2)
     eps = host.contact_eps_velocity * host.dt

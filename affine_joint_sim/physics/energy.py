@@ -10,7 +10,7 @@ energy b(d) of every pair closer than d̂ this is the energy that implicit BDF s
 
 import numpy as np
 
-from affine_joint_sim.physics.contact_model import world_distances
+from affine_joint_sim.physics.pair_geometry import pair_distances, pair_weight
 from affine_joint_sim.physics.contact_report import barrier_energy
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.model import HostModel, residual_jacobians
@@ -56,16 +56,17 @@ def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,
 
 
 def _contact_energy(model: HostModel, q: np.ndarray) -> np.ndarray:
-    """Σ b(d) [J] over the contact pairs closer than d̂, per leading index of q."""
+    """Σ m b(d) [J] over the contact pairs closer than d̂ (m: an edge pair's mollifier at the
+    same state), per leading index of q."""
     if not model.has_contact:
         return np.zeros(q.shape[:-2])
     states = q.reshape(-1, *q.shape[-2:])
     out = np.zeros(len(states))
     for e, state in enumerate(states):
-        distances = world_distances(state, vars(model)).reshape(-1)
-        distances[model.pair_on == 0] = np.inf
-        out[e] = sum(barrier_energy(d, model.contact_d_hat, model.contact_kappa)
-                     for d in distances if 0.0 < d < model.contact_d_hat)
+        distances = pair_distances(state, vars(model))
+        out[e] = sum(pair_weight(vars(model), state, p)
+                     * barrier_energy(d, model.contact_d_hat, model.contact_kappa)
+                     for p, d in enumerate(distances) if 0.0 < d < model.contact_d_hat)
     return out.reshape(q.shape[:-2])
 
 

@@ -34,6 +34,7 @@ def _probe_kernel(t):
     joint_raw_coordinate, joint_coordinate_gradients = (t.joint_raw_coordinate,
                                                         t.joint_coordinate_gradients)
     warm_start, moved, full_step, step_bound = t.warm_start, t.moved, t.full_step, t.step_bound
+    cover, gather_near = t.cover, t.gather_near
     one, salt = t.one, t.source_salt
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
@@ -43,6 +44,13 @@ def _probe_kernel(t):
               parent_gradient_out: wp.array(dtype=vec12),
               child_gradient_out: wp.array(dtype=vec12), q_out: wp.array(dtype=vec12)):
         wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
+        if which == ENERGY or which == NEWTON_SYSTEM:   # the edge and face pairs near q
+            for b in range(q.shape[1]):
+                scratch.q_start[0, b] = q[0, b]
+                scratch.dq[0, b] = vec12()
+                scratch.body_margin[0, b] = model.contact_d_hat
+            cover(model, scratch, 0)
+            gather_near(model, scratch, 0)
         if which == ENERGY:
             energy_out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
         elif which == NEWTON_SYSTEM:

@@ -6,8 +6,11 @@ exactly the model's fields (``HostModel``). Shapes are symbolic: ``body`` (every
 fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments), the
 statistics columns, ``problem`` (PROBLEM_COLUMNS), ``point`` (contact points: collision
 vertices and sphere centres), ``plane`` (static half-spaces), ``shape`` (fixed bodies'
-collision geometries: static boxes, spheres, capsules, cylinders) and ``pair`` (point × static
-thing: the planes, then the shapes);
+collision geometries: static boxes, spheres, capsules, cylinders, triangles), ``edge`` and
+``face`` (moving bodies' edges and triangles), ``static_edge`` and ``static_vertex`` (the
+static shapes' edges and corners), ``near`` (edge and face pairs) and ``pair`` (point ×
+static thing: the planes, then the shapes; then edge × static edge; then face × static
+vertex);
 ``()`` is a plain struct member, not an array. Frames: world, SI units.
 """
 
@@ -125,10 +128,24 @@ FIELDS = _fields('model', [
     ('shape_center', 'vec3', ('shape',), 'm', 'its centre in the world'),
     ('shape_size', 'vec3', ('shape',), 'm', 'box: half sides; sphere: (ρ, 0, 0); capsule and '
      'cylinder: (ρ, half length along its z, 0)'),
-    ('pair_friction', 'scalar', ('pair',), '-', 'Coulomb μ of point i against static thing g '
-     '(the half-spaces, then the shapes), pair i·(planes + shapes) + g'),
-    ('pair_on', 'int32', ('pair',), '-', '1: the pair may touch (0: a shape of the point\'s own '
-     'articulation without self_collision, or of a body jointed to it)'),
+    ('body_reach', 'scalar', B, 'm', 'the farthest corner of a free body\'s edges and faces '
+     'from its centre of mass, rest (0: none); bounds how far they move'),
+    ('edge_body', 'int32', ('edge',), '-', 'free body of each moving edge'),
+    ('edge_a', 'vec3', ('edge',), 'm', 'its first end, rest position'),
+    ('edge_b', 'vec3', ('edge',), 'm', 'its second end, rest position'),
+    ('edge_radius', 'scalar', ('edge',), 'm', 'its radius (a capsule\'s axis: r)'),
+    ('face_body', 'int32', ('face',), '-', 'free body of each moving face (a triangle)'),
+    ('face_rest', 'mat33', ('face',), 'm', 'its corners\' rest positions (columns)'),
+    ('static_edge_a', 'vec3', ('static_edge',), 'm', 'first end of each static edge, world'),
+    ('static_edge_b', 'vec3', ('static_edge',), 'm', 'its second end (= the first: a sphere)'),
+    ('static_edge_radius', 'scalar', ('static_edge',), 'm', 'its radius'),
+    ('static_vertex', 'vec3', ('static_vertex',), 'm', 'each static vertex, world'),
+    ('static_vertex_radius', 'scalar', ('static_vertex',), 'm', 'its radius'),
+    ('pair_friction', 'scalar', ('pair',), '-', 'Coulomb μ of each pair: point i against static '
+     'thing g (the half-spaces, then the shapes) at i·(planes + shapes) + g, then moving edge '
+     'e against static edge s, then moving face f against static vertex v, likewise'),
+    ('pair_on', 'int32', ('pair',), '-', '1: the pair may touch (0: a fixed body of the moving '
+     'body\'s own articulation without self_collision, or one jointed to it)'),
     ('contact_eps_velocity', 'scalar', (), 'm/s', 'slip speed ε_v below which friction is '
      'viscous'),
     ('contact_damping', 'scalar', (), '-', 'ζ: contact damping as a ratio to critical'),
@@ -175,9 +192,14 @@ FIELDS = _fields('model', [
     ('joint_raw', 'scalar', EJ, 'rad | m', 'raw coordinate of each joint at the Newton result '
      '(joint_raw_coordinate), for the commit'),
     ('friction_normal', 'scalar', ('env', 'pair'), 'N·s²', 'lagged normal force dt²·λ of each '
-     '(point, static thing) pair at the start of the step (0: no friction this step)'),
+     'pair at the start of the step (0: no friction this step)'),
     ('normal_damping', 'scalar', ('env', 'pair'), 'kg', 'lagged c·dt of each pair: its damping '
      'c = 2ζ √(k m) [N·s/m] at the start of the step (0: none this step)'),
+    ('near_pairs', 'int32', ('env', 'near'), '-', 'the edge and face pairs evaluated this step: '
+     'those within d̂ + body_margin at q_n (the others stay beyond d̂)'),
+    ('near_count', 'int32', E, '-', 'how many near_pairs'),
+    ('body_margin', 'scalar', EB, 'm', 'how far a body\'s edges and faces may move this step '
+     'before near_pairs is gathered again'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])
@@ -246,7 +268,11 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
             'free': int(np.sum(host.body_fixed == 0)),
             'joint': host.joint_count, 'point': len(host.point_body),
             'plane': len(host.plane_offset), 'shape': len(host.shape_kind),
-            'pair': len(host.pair_friction),
+            'pair': len(host.pair_friction), 'edge': len(host.edge_body),
+            'face': len(host.face_body), 'static_edge': len(host.static_edge_a),
+            'static_vertex': len(host.static_vertex),
+            'near': (len(host.edge_body) * len(host.static_edge_a)
+                     + len(host.face_body) * len(host.static_vertex)),
             'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 

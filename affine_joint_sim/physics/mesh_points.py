@@ -44,17 +44,16 @@ def mesh_points(path: str, scale, where: str) -> np.ndarray:
     return kept
 
 
-def mesh_triangles(path: str, scale, where: str) -> np.ndarray:
+def mesh_triangles(path: str, scale, where: str, most: int = MAX_STATIC_TRIANGLES) -> np.ndarray:
     """The triangles (n, 3, 3) [m, in the geometry's frame] of the mesh file at ``path``
-    scaled per axis by ``scale``, at most ``MAX_STATIC_TRIANGLES`` (more: vertex clustering,
-    with a warning), degenerate ones dropped; SceneError naming ``where`` if it has none."""
+    scaled per axis by ``scale``, at most ``most`` (more: vertex clustering, with a warning),
+    degenerate ones dropped; SceneError naming ``where`` if it has none."""
     vertices, faces = _load(path, scale, where)
-    triangles = vertices[faces] if len(faces) <= MAX_STATIC_TRIANGLES else \
-        decimated(vertices, faces, MAX_STATIC_TRIANGLES)
-    if len(faces) > MAX_STATIC_TRIANGLES:
-        warnings.warn(f'{where}: collision mesh {path} has {len(faces)} triangles; static '
-                      f'contact uses {len(triangles)} (vertex clustering: the outline stays, '
-                      'small detail goes)', SimulationWarning, stacklevel=4)
+    triangles = vertices[faces] if len(faces) <= most else decimated(vertices, faces, most)
+    if len(faces) > most:
+        warnings.warn(f'{where}: collision mesh {path} has {len(faces)} triangles; contact '
+                      f'uses {len(triangles)} (vertex clustering: the outline stays, small '
+                      'detail goes)', SimulationWarning, stacklevel=4)
     area = np.linalg.norm(np.cross(triangles[:, 1] - triangles[:, 0],
                                    triangles[:, 2] - triangles[:, 0]), axis=1)
     triangles = triangles[area > 1e-12 * max(float(area.max(initial=0.0)), 1e-300)]

@@ -32,7 +32,8 @@ class HostModel:
     Its attributes are exactly the model fields of ``physics.fields.FIELDS`` (names, units and
     shapes are documented there) plus host-only ones: ``precision``, ``active_terms`` (the
     terms a step evaluates), ``body_q0`` and ``body_v0`` (initial state and velocity, (nb, 12))
-    and ``static_names`` (the name of each half-space, then each static shape). Body arrays
+    and ``static_names`` (the name of each half-space, then each static shape, then the fixed
+    body of each static edge and of each static vertex). Body arrays
     have one row per scene body, fixed ones included (unused by the solver).
     """
 

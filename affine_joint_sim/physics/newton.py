@@ -251,15 +251,15 @@ def build(t) -> SimpleNamespace:
         shapes (which, unlike a half-space, a point can pass), the straight path to it from
         q_n keeps every gap (``step_bound`` of 1 from q_n; scratch.q_start and dq are used as
         its input, before Newton sets them)."""
-        nearest, active = touching(model, q, env)
-        clear = nearest > zero
-        if clear and model.shape_kind.shape[0] > 0:
+        clear = True
+        if model.shape_kind.shape[0] > 0:
             for k in range(model.elim_order.shape[0]):
                 b = model.elim_order[k]
                 scratch.q_start[env, b] = scratch.q_n[env, b]
                 scratch.dq[env, b] = q[env, b] - scratch.q_n[env, b]
             clear = step_bound(model, scratch, env) >= one
-        return clear
+        nearest, active = touching(model, q, scratch, env)
+        return clear and nearest > zero
 
     @wp.func
     def newton(model: Model, state: State, control: Control, scratch: Scratch, env: int,

@@ -46,7 +46,8 @@ def build(t) -> SimpleNamespace:
                                                  joint_coordinate(model, q, state, env, k), bdf2)
                     energy += e
         if model.has_contact != 0:
-            energy += contact_energy(model, q, env) + friction_energy(model, q, scratch, env)
+            energy += contact_energy(model, q, scratch, env)
+            energy += friction_energy(model, q, scratch, env)
             energy += damping_energy(model, q, scratch, env)
         return energy
 

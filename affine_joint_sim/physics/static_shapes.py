@@ -4,7 +4,8 @@ A fixed body with ``collision`` is world geometry: each of its boxes, spheres, c
 cylinders becomes a static shape at its world pose at t = 0 (a fixed body never moves), and
 each triangle of its meshes one too (at most ``MAX_STATIC_TRIANGLES`` a mesh). Moving bodies
 touch it with their contact points: the distance of a point to a convex shape, a triangle
-included, is exact (``shape_distance`` here, ``contact.shape_separation`` in the kernel).
+included, is exact (``shape_distance`` here, ``contact.shape_separation`` in the kernel); and
+with their edges and faces against its edges and vertices (``physics.primitives``).
 Which points may touch which shape follows the articulations (``Scene.articulations``;
 ``contact_model`` decides).
 """
@@ -16,7 +17,8 @@ from affine_joint_sim import portable_math as pm
 from affine_joint_sim.physics.mesh_points import mesh_triangles
 from affine_joint_sim.rotations import rpy_matrix
 
-__all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_separation', 'shape_distance']
+__all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_separation', 'shape_distance',
+           'triangle_weights']
 
 SHAPE_KINDS = {'box': 1, 'sphere': 2, 'capsule': 3, 'cylinder': 4, 'triangle': 5}
 
@@ -77,7 +79,9 @@ def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.nd
     them (``contact.shape_separation``)."""
     rotation = np.asarray(rotation)
     if kind == SHAPE_KINDS['triangle']:
-        gap = np.asarray(x) - _closest_on_triangle(np.asarray(x), *rotation.T)
+        a, b, c = rotation.T
+        weights = triangle_weights(np.asarray(x), a, b, c)
+        gap = np.asarray(x) - (weights[0] * a + weights[1] * b + weights[2] * c)
         length = pm.norm(gap)
         return length, gap / length if length > 0.0 else np.array([0.0, 0.0, 1.0])
     local = pm.matmul(rotation.T, np.asarray(x) - np.asarray(center))
@@ -109,28 +113,31 @@ def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.nd
     return length - size[0], pm.matmul(rotation, n)
 
 
-def _closest_on_triangle(x, a, b, c) -> np.ndarray:
-    """The point of triangle abc nearest to x, by the Voronoi region x is in (the kernel's
-    ``closest_on_triangle``)."""
+def triangle_weights(x, a, b, c) -> tuple[float, float, float]:
+    """The barycentric weights (of a, b, c) of the point of triangle abc nearest to x, by the
+    Voronoi region x is in (the kernel's ``triangle_weights``)."""
     ab, ac = b - a, c - a
     d1, d2 = pm.dot(ab, x - a), pm.dot(ac, x - a)
     d3, d4 = pm.dot(ab, x - b), pm.dot(ac, x - b)
     d5, d6 = pm.dot(ab, x - c), pm.dot(ac, x - c)
     vc, vb, va = d1 * d4 - d3 * d2, d5 * d2 - d1 * d6, d3 * d6 - d5 * d4
     if d1 <= 0.0 and d2 <= 0.0:
-        return a
+        return 1.0, 0.0, 0.0
     if d3 >= 0.0 and d4 <= d3:
-        return b
+        return 0.0, 1.0, 0.0
     if d6 >= 0.0 and d5 <= d6:
-        return c
+        return 0.0, 0.0, 1.0
     if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        return a + d1 / (d1 - d3) * ab
+        s = d1 / (d1 - d3)
+        return 1.0 - s, s, 0.0
     if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        return a + d2 / (d2 - d6) * ac
+        s = d2 / (d2 - d6)
+        return 1.0 - s, 0.0, s
     if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
-        return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b)
+        s = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return 0.0, 1.0 - s, s
     total = va + vb + vc
-    return a + vb / total * ab + vc / total * ac
+    return va / total, vb / total, vc / total
 
 
 def shape_distance(kind: int, rotation, center, size, x) -> float:

@@ -41,8 +41,8 @@ def build(t) -> SimpleNamespace:
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if finite == 0:
             converged = 0
-        write_stats(model, state, env, chunk, iterations, halvings, converged, failures, aliased,
-                    dropped, finite, rejected, residual, largest_gap(model, state, env),
-                    largest_strain(model, state, env))
+        write_stats(model, state, scratch, env, chunk, iterations, halvings, converged,
+                    failures, aliased, dropped, finite, rejected, residual,
+                    largest_gap(model, state, env), largest_strain(model, state, env))
 
     return SimpleNamespace(step=step)
