@@ -301,7 +301,8 @@ class Stepper:
         for array in (self._state.history_ready, self._control.joint_target,
                       self._control.joint_drive_enabled, self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float,
-                      self._scratch.friction_normal, self._scratch.normal_damping):
+                      self._scratch.friction_normal, self._scratch.normal_damping,
+                      self._scratch.near_count):
             array.zero_()
         x0 = np.ascontiguousarray(np.broadcast_to(h.joint_initial_position,
                                                   (n, h.joint_count)))

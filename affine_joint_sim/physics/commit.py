@@ -164,7 +164,7 @@ def build(t) -> SimpleNamespace:
         state.stats_float[env, s_gap] = gap
         state.stats_float[env, s_strain] = strain
         if model.has_contact != 0:
-            nearest, contacts = touching(model, state.q, scratch, env)
+            nearest, contacts = touching(model, state.q, scratch, env, 1)
             state.stats_float[env, s_distance] = nearest
             state.stats_int[env, s_contacts] = contacts
             state.nearest_seen[env] = wp.min(state.nearest_seen[env], nearest)

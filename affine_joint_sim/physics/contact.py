@@ -303,22 +303,18 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def listed(model: Model, scratch: Scratch, env: int):
-        """How many pairs this step evaluates: every point pair, then the near edge and face
-        pairs (``listed_pair``)."""
-        return point_pairs(model) + scratch.near_count[env]
+        """How many pairs this step evaluates: the near pairs (``gather_near``)."""
+        return scratch.near_count[env]
 
     @wp.func
     def listed_pair(model: Model, scratch: Scratch, env: int, k: int):
-        """The k-th pair this step evaluates."""
-        p = k
-        if k >= point_pairs(model):
-            p = scratch.near_pairs[env, k - point_pairs(model)]
-        return p
+        """The k-th pair this step evaluates (ascending)."""
+        return scratch.near_pairs[env, k]
 
     @wp.func
     def motion(model: Model, b: int, dq: vec12):
-        """A bound [m] on how far a change dq of body b's state moves any point of its edges
-        and faces: |Δp| + ‖ΔA‖_F ρ (ρ: body_reach)."""
+        """A bound [m] on how far a change dq of body b's state moves any of its contact
+        points or any point of its edges and faces: |Δp| + ‖ΔA‖_F ρ (ρ: body_reach)."""
         a = affine(dq)
         frobenius = zero
         for r in range(3):
@@ -328,25 +324,36 @@ def build(t) -> SimpleNamespace:
                 + wp.sqrt(frobenius) * model.body_reach[b])
 
     @wp.func
-    def add_near(model: Model, scratch: Scratch, env: int, p: int, reach: scalar, count: int):
-        """Append pair p to near_pairs if it may touch and its distance at q_n is below
-        ``reach`` [m]; returns the new count."""
-        out = count
+    def add_near(model: Model, scratch: Scratch, env: int, p: int, reach: scalar, at: int):
+        """Write pair p to near_pairs[at] if it may touch and its distance at q_n is below
+        ``reach`` [m]; returns the next free index."""
+        out = at
         if model.pair_on[p] != 0:
             d, n, rest, radius = pair_gap(model, scratch.q_n[env, pair_body(model, p)], p)
             if d < reach:
-                scratch.near_pairs[env, count] = p
-                out = count + 1
+                scratch.near_pairs[env, at] = p
+                out = at + 1
         return out
 
     @wp.func
-    def gather_near(model: Model, scratch: Scratch, env: int):
-        """near_pairs: the edge and face pairs within d̂ + body_margin of their body at q_n,
-        found edge by edge and face by face: a pair is not evaluated where the moving side's
-        bounding sphere at q_n (about its midpoint or centroid) is farther from the static
-        edge or vertex."""
-        count = int(0)
+    def gather_near(model: Model, scratch: Scratch, env: int, start: int):
+        """The pairs within d̂ + body_margin of their body at q_n, ascending, into
+        near_pairs from index ``start``; returns how many. Edges and faces are found edge by
+        edge and face by face: a pair is not evaluated where the moving side's bounding
+        sphere at q_n (about its midpoint or centroid) is farther from the static edge or
+        vertex."""
+        at = start
         first = point_pairs(model)
+        things = statics(model)
+        for i in range(model.point_body.shape[0]):
+            b = model.point_body[i]
+            reach = model.contact_d_hat + scratch.body_margin[env, b]
+            for g in range(things):
+                if model.pair_on[i * things + g] != 0:
+                    d, n = distance(model, scratch.q_n[env, b], i, g)
+                    if d < reach:
+                        scratch.near_pairs[env, at] = i * things + g
+                        at += 1
         statics_e = model.static_edge_a.shape[0]
         edges = model.edge_body.shape[0]
         for e in range(edges):
@@ -357,16 +364,16 @@ def build(t) -> SimpleNamespace:
             size = half * wp.length(end_b - end_a) + model.edge_radius[e]
             middle = half * (end_a + end_b)
             for s in range(statics_e):
-                start = model.static_edge_a[s]
-                along = model.static_edge_b[s] - start
+                start_s = model.static_edge_a[s]
+                along = model.static_edge_b[s] - start_s
                 t = zero
                 if wp.dot(along, along) > zero:
-                    t = wp.clamp(wp.dot(middle - start, along) / wp.dot(along, along), zero, one)
-                apart = (wp.length(middle - start - t * along) - size
+                    t = wp.clamp(wp.dot(middle - start_s, along) / wp.dot(along, along), zero,
+                                 one)
+                apart = (wp.length(middle - start_s - t * along) - size
                          - model.static_edge_radius[s])
                 if apart < reach:
-                    count = add_near(model, scratch, env, first + e * statics_e + s, reach,
-                                     count)
+                    at = add_near(model, scratch, env, first + e * statics_e + s, reach, at)
         statics_v = model.static_vertex.shape[0]
         for f in range(model.face_body.shape[0]):
             b = model.face_body[f]
@@ -385,16 +392,16 @@ def build(t) -> SimpleNamespace:
                 apart = (wp.length(centre - model.static_vertex[v]) - size
                          - model.static_vertex_radius[v])
                 if apart < reach:
-                    count = add_near(model, scratch, env,
-                                     first + edges * statics_e + f * statics_v + v, reach, count)
-        scratch.near_count[env] = count
+                    at = add_near(model, scratch, env,
+                                  first + edges * statics_e + f * statics_v + v, reach, at)
+        return at - start
 
     @wp.func
     def cover(model: Model, scratch: Scratch, env: int):
         """Keep every pair not listed beyond d̂ along q_start + α dq, α ∈ [0, 1]: a body whose
-        edges and faces may move farther from q_n than its margin (``motion`` of
+        points, edges and faces may move farther from q_n than its margin (``motion`` of
         q_start − q_n plus of dq) gets twice that margin, and near_pairs is gathered again."""
-        if pair_count(model) > point_pairs(model):
+        if pair_count(model) > 0:
             wider = int(0)
             for k in range(model.elim_order.shape[0]):
                 b = model.elim_order[k]
@@ -404,7 +411,7 @@ def build(t) -> SimpleNamespace:
                     scratch.body_margin[env, b] = two * reach
                     wider = 1
             if wider != 0:
-                gather_near(model, scratch, env)
+                scratch.near_count[env] = gather_near(model, scratch, env, 0)
 
     @wp.func
     def pair_on(model: Model, p: int):
@@ -464,49 +471,61 @@ def build(t) -> SimpleNamespace:
         return one / inverse
 
     @wp.func
+    def retire(scratch: Scratch, env: int, old: int, fresh: int):
+        """Zero the lagged forces of the pairs in near_pairs[0, old) that are not in
+        near_pairs[old, old + fresh) (both ascending), then move the fresh list to the front:
+        only listed pairs ever hold lagged forces."""
+        k = int(old)
+        for j in range(old):
+            p = scratch.near_pairs[env, j]
+            while k < old + fresh and scratch.near_pairs[env, k] < p:
+                k += 1
+            if k >= old + fresh or scratch.near_pairs[env, k] != p:
+                scratch.friction_normal[env, p] = zero
+                scratch.normal_damping[env, p] = zero
+        for j in range(fresh):
+            scratch.near_pairs[env, j] = scratch.near_pairs[env, old + j]
+        scratch.near_count[env] = fresh
+
+    @wp.func
     def lag_friction(model: Model, state: State, scratch: Scratch, env: int):
-        """Per pair closer than d̂ at q_n, frozen for the step: the normal force dt² λ into
-        scratch.friction_normal (friction's weight: the barrier's −dt² db/dd, for a point
-        pair plus the last step's damping force c (d_{n−1} − d_n)/dt while it was
-        approaching, at most as much again as the barrier's: friction sees the load the
+        """Gathers this step's near pairs (margins of twice each body's predicted ``motion``,
+        at least d̂), then per pair closer than d̂ at q_n, frozen for the step: the normal
+        force dt² λ into scratch.friction_normal (friction's weight: the barrier's
+        −dt² db/dd plus the last step's damping force c (d_{n−1} − d_n)/dt while the pair
+        was approaching, at most as much again as the barrier's: friction sees the load the
         damper carries while it settles, not an impact's spike) and the contact damping
         c·dt = 2ζ √(b''(d) m_eff) dt into scratch.normal_damping (0 for the others); an edge
-        pair's mollifier weighs both. First gathers near_pairs anew, with margins of twice
-        each body's predicted ``motion`` (at least d̂)."""
-        for k in range(scratch.near_count[env]):
-            p = scratch.near_pairs[env, k]
-            scratch.friction_normal[env, p] = zero
-            scratch.normal_damping[env, p] = zero
+        pair's mollifier weighs both."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * motion(
                 model, b, scratch.q_tilde[env, b] - scratch.q_n[env, b]))
-        gather_near(model, scratch, env)
-        for k in range(listed(model, scratch, env)):
-            p = listed_pair(model, scratch, env, k)
+        old = scratch.near_count[env]
+        fresh = gather_near(model, scratch, env, old)
+        for k in range(old, old + fresh):
+            p = scratch.near_pairs[env, k]
             b = pair_body(model, p)
             qb = scratch.q_n[env, b]
             force = zero
             damping = zero
-            last_damping = zero
-            if p < point_pairs(model):
-                last_damping = scratch.normal_damping[env, p]
-            if pair_on(model, p):
-                d, n, rest, radius = pair_gap(model, qb, p)
-                if d > zero and d < model.contact_d_hat:
-                    e, b1, b2 = barrier(model, d)
-                    weight = pair_weight(model, qb, p)
-                    force = -model.dt * model.dt * weight * b1
-                    if last_damping > zero:
-                        d_prev, n_prev, rest_prev, r_prev = pair_gap(
-                            model, state.q_prev[env, b], p)
-                        force += wp.min(last_damping * wp.max(d_prev - d, zero), force)
-                    if model.contact_damping > zero:
-                        mass = point_mass(model, b, qb, touch_rest(qb, rest, radius, n), n)
-                        damping = (two * model.contact_damping
-                                   * wp.sqrt(wp.max(weight * b2, zero) * mass) * model.dt)
+            last_damping = scratch.normal_damping[env, p]
+            d, n, rest, radius = pair_gap(model, qb, p)
+            if d > zero and d < model.contact_d_hat:
+                e, b1, b2 = barrier(model, d)
+                weight = pair_weight(model, qb, p)
+                force = -model.dt * model.dt * weight * b1
+                if last_damping > zero:
+                    d_prev, n_prev, rest_prev, r_prev = pair_gap(
+                        model, state.q_prev[env, b], p)
+                    force += wp.min(last_damping * wp.max(d_prev - d, zero), force)
+                if model.contact_damping > zero:
+                    mass = point_mass(model, b, qb, touch_rest(qb, rest, radius, n), n)
+                    damping = (two * model.contact_damping
+                               * wp.sqrt(wp.max(weight * b2, zero) * mass) * model.dt)
             scratch.friction_normal[env, p] = force
             scratch.normal_damping[env, p] = damping
+        retire(scratch, env, old, fresh)
 
     @wp.func
     def approach(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
@@ -738,18 +757,30 @@ def build(t) -> SimpleNamespace:
         return alpha
 
     @wp.func
-    def touching(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
-        """(smallest distance [m] of a pair this step evaluates that may touch, +∞ without
-        any; pairs closer than d̂) at q (a pair not listed is beyond d̂)."""
+    def touching(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                 every_point: int):
+        """(smallest distance [m] of a pair that may touch, +∞ without any; pairs closer than
+        d̂) at q, over the listed pairs (the others are beyond d̂), or with ``every_point``
+        over every point pair and the listed edge and face pairs (the statistics)."""
         nearest = infinity
         active = int(0)
-        for k in range(listed(model, scratch, env)):
+        start = int(0)
+        if every_point != 0:
+            for p in range(point_pairs(model)):
+                if model.pair_on[p] != 0:
+                    d, n, rest, radius = pair_gap(model, q[env, pair_body(model, p)], p)
+                    nearest = wp.min(nearest, d)
+                    if d < model.contact_d_hat:
+                        active += 1
+            while start < listed(model, scratch, env) and listed_pair(
+                    model, scratch, env, start) < point_pairs(model):
+                start += 1
+        for k in range(start, listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            if pair_on(model, p):
-                d, n, rest, radius = pair_gap(model, q[env, pair_body(model, p)], p)
-                nearest = wp.min(nearest, d)
-                if d < model.contact_d_hat:
-                    active += 1
+            d, n, rest, radius = pair_gap(model, q[env, pair_body(model, p)], p)
+            nearest = wp.min(nearest, d)
+            if d < model.contact_d_hat:
+                active += 1
         return nearest, active
 
     return SimpleNamespace(contact_distance=distance, barrier=barrier, pair_gap=pair_gap,

@@ -158,7 +158,7 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
                   point_rest=np.array(rests, dtype=np.float64).reshape(-1, 3),
                   point_radius=np.array(radii, dtype=np.float64),
                   plane_normal=normals, plane_offset=offsets, **shapes,
-                  **moving.arrays(len(scene.bodies)),
+                  **moving.arrays(len(scene.bodies), zip(bodies, rests)),
                   **fixed.arrays())
     names += shape_names + [scene.bodies[f].name for f in fixed.edge_owner + fixed.vertex_owner]
     _refuse_touching(scene, q0, arrays, names)
@@ -181,10 +181,13 @@ class _Moving:
             self.face_body.append(body)
             self.faces.append(surface.vertices[face].T)        # the corners as columns
 
-    def arrays(self, bodies: int) -> dict:
+    def arrays(self, bodies: int, points) -> dict:
+        """The fields, with body_reach over the edges', faces' and ``points``' (body, x̄)
+        rest positions."""
         ends = np.array(self.edges, dtype=np.float64).reshape(-1, 2, 3)
         reach = np.zeros(bodies)
-        corners = list(zip(self.edge_body, ends[:, 0])) + list(zip(self.edge_body, ends[:, 1]))
+        corners = list(points) + list(zip(self.edge_body, ends[:, 0]))
+        corners += list(zip(self.edge_body, ends[:, 1]))
         corners += [(b, corner) for b, face in zip(self.face_body, self.faces) for corner in face.T]
         for b, corner in corners:
             reach[b] = max(reach[b], pm.norm(corner))

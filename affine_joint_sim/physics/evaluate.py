@@ -50,7 +50,7 @@ def _probe_kernel(t):
                 scratch.dq[0, b] = vec12()
                 scratch.body_margin[0, b] = model.contact_d_hat
             cover(model, scratch, 0)
-            gather_near(model, scratch, 0)
+            scratch.near_count[0] = gather_near(model, scratch, 0, 0)
         if which == ENERGY:
             energy_out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
         elif which == NEWTON_SYSTEM:

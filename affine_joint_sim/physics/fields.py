@@ -8,7 +8,7 @@ statistics columns, ``problem`` (PROBLEM_COLUMNS), ``point`` (contact points: co
 vertices and sphere centres), ``plane`` (static half-spaces), ``shape`` (fixed bodies'
 collision geometries: static boxes, spheres, capsules, cylinders, triangles), ``edge`` and
 ``face`` (moving bodies' edges and triangles), ``static_edge`` and ``static_vertex`` (the
-static shapes' edges and corners), ``near`` (edge and face pairs) and ``pair`` (point ×
+static shapes' edges and corners), ``near`` (twice the pairs) and ``pair`` (point ×
 static thing: the planes, then the shapes; then edge × static edge; then face × static
 vertex);
 ``()`` is a plain struct member, not an array. Frames: world, SI units.
@@ -128,8 +128,8 @@ FIELDS = _fields('model', [
     ('shape_center', 'vec3', ('shape',), 'm', 'its centre in the world'),
     ('shape_size', 'vec3', ('shape',), 'm', 'box: half sides; sphere: (ρ, 0, 0); capsule and '
      'cylinder: (ρ, half length along its z, 0)'),
-    ('body_reach', 'scalar', B, 'm', 'the farthest corner of a free body\'s edges and faces '
-     'from its centre of mass, rest (0: none); bounds how far they move'),
+    ('body_reach', 'scalar', B, 'm', 'the farthest contact point or corner of an edge or face of '
+     'a free body from its centre of mass, rest (0: none); bounds how far they move'),
     ('edge_body', 'int32', ('edge',), '-', 'free body of each moving edge'),
     ('edge_a', 'vec3', ('edge',), 'm', 'its first end, rest position'),
     ('edge_b', 'vec3', ('edge',), 'm', 'its second end, rest position'),
@@ -195,11 +195,12 @@ FIELDS = _fields('model', [
      'pair at the start of the step (0: no friction this step)'),
     ('normal_damping', 'scalar', ('env', 'pair'), 'kg', 'lagged c·dt of each pair: its damping '
      'c = 2ζ √(k m) [N·s/m] at the start of the step (0: none this step)'),
-    ('near_pairs', 'int32', ('env', 'near'), '-', 'the edge and face pairs evaluated this step: '
-     'those within d̂ + body_margin at q_n (the others stay beyond d̂)'),
+    ('near_pairs', 'int32', ('env', 'near'), '-', 'the pairs evaluated this step, ascending: '
+     'those within d̂ + body_margin at q_n (the others stay beyond d̂); room for two lists, '
+     'the last step\'s and the next'),
     ('near_count', 'int32', E, '-', 'how many near_pairs'),
-    ('body_margin', 'scalar', EB, 'm', 'how far a body\'s edges and faces may move this step '
-     'before near_pairs is gathered again'),
+    ('body_margin', 'scalar', EB, 'm', 'how far a body\'s contact points, edges and faces may '
+     'move this step before near_pairs is gathered again'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])
@@ -271,8 +272,7 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
             'pair': len(host.pair_friction), 'edge': len(host.edge_body),
             'face': len(host.face_body), 'static_edge': len(host.static_edge_a),
             'static_vertex': len(host.static_vertex),
-            'near': (len(host.edge_body) * len(host.static_edge_a)
-                     + len(host.face_body) * len(host.static_vertex)),
+            'near': 2 * len(host.pair_friction),
             'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 

@@ -258,7 +258,7 @@ def build(t) -> SimpleNamespace:
                 scratch.q_start[env, b] = scratch.q_n[env, b]
                 scratch.dq[env, b] = q[env, b] - scratch.q_n[env, b]
             clear = step_bound(model, scratch, env) >= one
-        nearest, active = touching(model, q, scratch, env)
+        nearest, active = touching(model, q, scratch, env, 0)
         return clear and nearest > zero
 
     @wp.func
