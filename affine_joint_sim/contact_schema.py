@@ -25,7 +25,9 @@ class Contact(StrictModel):
     ``eps_velocity`` [m/s]: the slip speed below which friction acts as a stiff viscous law;
     ``damping``: the ratio to critical of a viscous damping on each contact's approach speed
     (1: a bounce dies out at once, as MuJoCo's default; 0: the undamped IPC barrier);
-    ``self_collision``: bodies of one articulation touch each other (jointed pairs never)."""
+    ``self_collision``: bodies of one articulation touch each other (jointed pairs never);
+    ``exclude``: pairs of body names that never touch each other (MuJoCo's ``<exclude>``; in
+    a URDF scene link names, with the SRDF's ``<disable_collisions>`` added)."""
 
     d_hat: PositiveFloat = 1.0e-3
     kappa: PositiveFloat = 1.0e9
@@ -33,6 +35,7 @@ class Contact(StrictModel):
     eps_velocity: PositiveFloat = 1.0e-3
     damping: NonNegative = 1.0
     self_collision: bool = False
+    exclude: list[tuple[str, str]] = []
 
 
 class HalfSpace(StrictModel):

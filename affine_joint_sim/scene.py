@@ -453,6 +453,11 @@ class Scene(SceneSettings):
                     problems.append((f'{section}[{i}].body', f'unknown body {item.body!r}; '
                                      f'valid: {valid}'))
         problems += self._sensor_problems()
+        for k, pair in enumerate(self.contact.exclude if self.contact else []):
+            for name in pair:
+                if name not in body_names:
+                    problems.append((f'contact.exclude[{k}]', f'unknown body {name!r}; valid: '
+                                     f'{valid}'))
         if not problems:
             problems += self._closed_loops()
         return problems

@@ -136,9 +136,15 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
                  for half in (scene.ground or [])] if on else []
     static_mu += [body_mu[f] for f in owners]
     group, jointed = scene.articulations()
+    excluded = {(scene.body_index(a), scene.body_index(b)) for a, b in settings.exclude}
+    excluded |= {(b, a) for a, b in excluded}
 
     def may_touch(b, f):
-        if f is None or group[b] != group[f]:
+        if f is None:
+            return 1
+        if (b, f) in excluded:
+            return 0
+        if group[b] != group[f]:
             return 1
         return int(settings.self_collision and (b, f) not in jointed)
 

@@ -144,8 +144,9 @@ FIELDS = _fields('model', [
     ('pair_friction', 'scalar', ('pair',), '-', 'Coulomb μ of each pair: point i against static '
      'thing g (the half-spaces, then the shapes) at i·(planes + shapes) + g, then moving edge '
      'e against static edge s, then moving face f against static vertex v, likewise'),
-    ('pair_on', 'int32', ('pair',), '-', '1: the pair may touch (0: a fixed body of the moving '
-     'body\'s own articulation without self_collision, or one jointed to it)'),
+    ('pair_on', 'int32', ('pair',), '-', '1: the pair may touch (0: contact.exclude names it, or '
+     'a fixed body of the moving body\'s own articulation without self_collision, or one '
+     'jointed to it)'),
     ('contact_eps_velocity', 'scalar', (), 'm/s', 'slip speed ε_v below which friction is '
      'viscous'),
     ('contact_damping', 'scalar', (), '-', 'ζ: contact damping as a ratio to critical'),

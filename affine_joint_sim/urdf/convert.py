@@ -41,6 +41,7 @@ from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moment
                                            principal_frame)
 from affine_joint_sim.urdf.packages import resolve_uri
 from affine_joint_sim.urdf.read import read_urdf
+from affine_joint_sim.urdf.srdf import disabled_pairs
 from affine_joint_sim.urdf.visuals import link_visuals
 
 __all__ = ['urdf_scene_data', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']
@@ -69,6 +70,7 @@ class UrdfOptions(SceneSettings):
     contact: Contact | None = None      # as a scene's; with ground: <collision> is used
     ground: Ground | None = None
     sensors: list[Sensor] = []          # as a scene's; body: a link name (README.md#sensors)
+    srdf: str | None = None             # its <disable_collisions> join contact.exclude
 
 
 def urdf_scene_data(path, overrides: dict, source: str) -> tuple[dict, str]:
@@ -409,7 +411,8 @@ class _Converter:
             _warn(f'{self.path}: the robot floats (fixed_base: false) and there is no ground: '
                   'under gravity it falls without end (give ground, or fixed_base: true to '
                   'weld its root link to the world)')
-        if self.options.contact is not None or self.options.ground is not None:
+        touching = self.options.contact is not None or self.options.ground is not None
+        if touching:
             self._add_collisions(bodies)
         joints = [self._joint(j) for j in self.robot.joints if not self._welded(j)]
         joints = self._overridden([j for j in joints if j is not None])
@@ -420,8 +423,33 @@ class _Converter:
         settings = options.model_dump(include={*SceneSettings.model_fields, 'contact',
                                                'ground', 'sensors'}, exclude_none=True)
         settings['name'] = options.name or self.robot.name or self.path.stem
+        if touching:
+            settings['contact'] = {**settings.get('contact', {}), 'exclude': self._excluded()}
         return {**settings, 'bodies': bodies, 'joints': joints, 'frames': frames,
                 'visuals': visuals}
+
+    def _excluded(self) -> list[list[str]]:
+        """contact.exclude and the SRDF's <disable_collisions> as pairs of body names (two
+        links merged into one body need none); SceneError naming an unknown link."""
+        named = [(pair, f'contact.exclude[{k}]') for k, pair in
+                 enumerate(self.options.contact.exclude if self.options.contact else [])]
+        if self.options.srdf is not None:
+            found = resolve_uri(self.options.srdf, self.options.package_paths, self.path.parent)
+            if found is None:
+                raise SceneError(f'srdf: {self.options.srdf!r} not found (package_paths, '
+                                 'ROS_PACKAGE_PATH, AMENT_PREFIX_PATH, the URDF\'s folder '
+                                 'searched)')
+            named += [((pair.link1, pair.link2), f'{found}:{pair.line}: <disable_collisions>')
+                      for pair in disabled_pairs(found)]
+        out = []
+        for pair, where in named:
+            for link in pair:
+                if link not in self.body_of:
+                    raise SceneError(f'{where}: unknown link {link!r} of {self.path}')
+            bodies = [self.body_of[link] for link in pair]
+            if bodies[0] != bodies[1] and bodies not in out:
+                out.append(bodies)
+        return out
 
     def _add_collisions(self, bodies: list[dict]) -> None:
         """Each link's <collision> elements as its body's ``collision`` list, posed in the
