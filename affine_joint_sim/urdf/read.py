@@ -14,6 +14,7 @@ the C library's sin and cos and BLAS, which round differently on other machines
 import io
 import logging
 import math
+from pathlib import Path
 
 import numpy as np
 from lxml import etree
@@ -22,7 +23,7 @@ from affine_joint_sim.rotations import pose_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.urdf.collisions import read_collisions
 
-__all__ = ['read_urdf', 'JOINT_TYPES']
+__all__ = ['read_urdf', 'read_xml', 'JOINT_TYPES']
 
 # URDF's joint types (urdfdom); the converter says what it does with each
 JOINT_TYPES = ('revolute', 'continuous', 'prismatic', 'fixed', 'floating', 'planar')
@@ -30,18 +31,24 @@ _XACRO = 'http://www.ros.org/wiki/xacro'
 _GEOMETRIES = ('box', 'cylinder', 'sphere', 'mesh')      # what yourdfpy reads
 
 
+def read_xml(path, kind: str):
+    """(the bytes, the lxml root element) of the XML file at ``path``, entities and network
+    off; SceneError naming the file if it cannot be read (a ``kind`` file) or parsed."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise SceneError(f'{path}: cannot read {kind} file ({exc.strerror})') from None
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, remove_comments=True)
+    try:
+        return data, etree.fromstring(data, parser)
+    except etree.XMLSyntaxError as exc:
+        raise SceneError(f'{path}: not valid XML: {exc.msg}') from None
+
+
 def read_urdf(path):
     """The URDF text, its yourdfpy ``Robot``, its collisions (``LinkCollision`` list) and
     notes about visuals that were dropped; SceneError naming the file (and line)."""
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise SceneError(f'{path}: cannot read URDF file ({exc.strerror})') from None
-    parser = etree.XMLParser(resolve_entities=False, no_network=True, remove_comments=True)
-    try:
-        root = etree.fromstring(data, parser)
-    except etree.XMLSyntaxError as exc:
-        raise SceneError(f'{path}: not valid XML: {exc.msg}') from None
+    data, root = read_xml(path, 'URDF')
     _check_elements(path, root)
     encoding = root.getroottree().docinfo.encoding or 'utf-8'
     try:

@@ -4,9 +4,8 @@ are always in collision, and links that can never meet."""
 
 from pathlib import Path
 
-from lxml import etree
-
 from affine_joint_sim.scene import SceneError
+from affine_joint_sim.urdf.read import read_xml
 
 __all__ = ['DisabledPair', 'disabled_pairs']
 
@@ -21,15 +20,7 @@ class DisabledPair:
 def disabled_pairs(path: Path) -> list[DisabledPair]:
     """The ``<disable_collisions>`` pairs of the SRDF at ``path``; SceneError naming the file
     (and line) if it cannot be read or an element lacks a link."""
-    try:
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise SceneError(f'{path}: cannot read SRDF file ({exc.strerror})') from None
-    parser = etree.XMLParser(resolve_entities=False, no_network=True, remove_comments=True)
-    try:
-        root = etree.fromstring(data, parser)
-    except etree.XMLSyntaxError as exc:
-        raise SceneError(f'{path}: not valid XML: {exc.msg}') from None
+    data, root = read_xml(path, 'SRDF')
     pairs = []
     for element in root.iter('disable_collisions'):
         links = [element.get('link1'), element.get('link2')]
