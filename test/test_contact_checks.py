@@ -145,6 +145,23 @@ def test_batched_quadrupeds_on_two_threads_equal_single_runs_bit_for_bit():
     assert (batch.stats['contacts'] == 4).all()
 
 
+def test_a_turned_line_search_trial_never_ends_below_the_ground():
+    """The quadruped under the bench's PD law at dt 2 ms: at t = 1.38 s the line search's
+    first trial, which follows the links' turns off the straight path, ended a foot 0.11 mm
+    below the ground while only the pairs near the straight path were evaluated (then 1.8 mm
+    by the run's end); the near pairs now cover that trial's end too."""
+    from affine_joint_sim.bench.contact import CASES, _Stand
+    case = next(c for c in CASES if c.robot)
+    sim = Stepper(case.scene(0.002))
+    joints = {j.name: j for j in sim.scene.joints}
+    stand = _Stand(sim.command_joint_names,
+                   [joints[name].effort_limit for name in sim.command_joint_names])
+    for _ in range(750):
+        sim.set_torques(stand(sim.angles, sim.velocities))
+        sim.step()
+        assert sim.stats['min_distance'] > 0.0
+
+
 @pytest.mark.parametrize('mu', [0.2, 0.5, 0.8])
 def test_the_friction_grid_a_block_sticks_below_tan_alpha_mu_and_slides_above(mu):
     """For each slope α: tan α < μ, the block moves less than ε_v × time (it creeps below

@@ -397,16 +397,19 @@ def build(t) -> SimpleNamespace:
         return at - start
 
     @wp.func
-    def cover(model: Model, scratch: Scratch, env: int):
-        """Keep every pair not listed beyond d̂ along q_start + α dq, α ∈ [0, 1]: a body whose
-        points, edges and faces may move farther from q_n than its margin (``motion`` of
-        q_start − q_n plus of dq) gets twice that margin, and near_pairs is gathered again."""
+    def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+              along: int):
+        """Keep every pair not listed beyond d̂ at q, or with ``along`` on the whole path
+        q + α dq, α ∈ [0, 1] (dq: scratch.dq): a body whose points, edges and faces may be
+        farther from where they were at q_n than its margin (``motion`` of q − q_n, plus of
+        dq along the path) gets twice that margin, and near_pairs is gathered again."""
         if pair_count(model) > 0:
             wider = int(0)
             for k in range(model.elim_order.shape[0]):
                 b = model.elim_order[k]
-                reach = (motion(model, b, scratch.q_start[env, b] - scratch.q_n[env, b])
-                         + motion(model, b, scratch.dq[env, b]))
+                reach = motion(model, b, q[env, b] - scratch.q_n[env, b])
+                if along != 0:
+                    reach += motion(model, b, scratch.dq[env, b])
                 if reach > scratch.body_margin[env, b]:
                     scratch.body_margin[env, b] = two * reach
                     wider = 1
@@ -741,7 +744,7 @@ def build(t) -> SimpleNamespace:
         (exact for half-spaces, conservative for shapes); an edge's or face's distance is
         neither, and advances conservatively (``advance_bound``); the pairs not listed stay
         beyond d̂ (``cover``)."""
-        cover(model, scratch, env)
+        cover(model, scratch.q_start, scratch, env, 1)
         alpha = one
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)

@@ -46,10 +46,8 @@ def _probe_kernel(t):
         wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
         if which == ENERGY or which == NEWTON_SYSTEM:   # the edge and face pairs near q
             for b in range(q.shape[1]):
-                scratch.q_start[0, b] = q[0, b]
-                scratch.dq[0, b] = vec12()
                 scratch.body_margin[0, b] = model.contact_d_hat
-            cover(model, scratch, 0)
+            cover(model, q, scratch, 0, 0)
             scratch.near_count[0] = gather_near(model, scratch, 0, 0)
         if which == ENERGY:
             energy_out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)

@@ -41,7 +41,7 @@ def build(t) -> SimpleNamespace:
     assemble, solve_tree, solve_factored = t.assemble, t.solve_tree, t.solve_factored
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
     incremental_potential = t.incremental_potential
-    step_bound, touching = t.step_bound, t.touching
+    step_bound, touching, cover = t.step_bound, t.touching, t.cover
 
     @wp.func
     def warm_start(q_tilde: vec12, q_n: vec12):
@@ -216,6 +216,8 @@ def build(t) -> SimpleNamespace:
         # half-spaces (one free side), not against a static shape a point could pass
         if model.shape_kind.shape[0] == 0:
             move(model, q, scratch, env, full_step(model, scratch, env), 1)
+            if model.has_contact != 0:      # the near pairs must cover the turned end too
+                cover(model, q, scratch, env, 0)
             trial = incremental_potential(model, state, control, q, scratch, env,
                                           kinetic_scale, bdf2)
             if trial <= bound:
@@ -250,7 +252,9 @@ def build(t) -> SimpleNamespace:
         """Whether Newton may start from the prediction q: it touches nothing and, with static
         shapes (which, unlike a half-space, a point can pass), the straight path to it from
         q_n keeps every gap (``step_bound`` of 1 from q_n; scratch.q_start and dq are used as
-        its input, before Newton sets them)."""
+        its input, before Newton sets them). The near pairs first cover q (``cover``: the
+        commands and the warm start may have moved it beyond the margins)."""
+        cover(model, q, scratch, env, 0)
         clear = True
         if model.shape_kind.shape[0] > 0:
             for k in range(model.elim_order.shape[0]):
@@ -275,6 +279,8 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
+        start_energy = zero
+        start_known = int(0)     # the start's E was evaluated choosing it (contact)
         if model.has_contact != 0:
             # from q_n (which touches nothing) where the prediction cannot be reached, or
             # where q_n is lower in E: a resting body's prediction sinks into the barrier
@@ -282,10 +288,14 @@ def build(t) -> SimpleNamespace:
             if not reachable(model, q, scratch, env):
                 from_n = 1
             elif resting(model, scratch, env):
-                if incremental_potential(model, state, control, scratch.q_n, scratch, env,
-                                         kinetic_scale, bdf2) < incremental_potential(
-                        model, state, control, q, scratch, env, kinetic_scale, bdf2):
+                at_n = incremental_potential(model, state, control, scratch.q_n, scratch, env,
+                                             kinetic_scale, bdf2)
+                start_energy = incremental_potential(model, state, control, q, scratch, env,
+                                                     kinetic_scale, bdf2)
+                if at_n < start_energy:
                     from_n = 1
+                    start_energy = at_n
+                start_known = 1
             if from_n != 0:
                 for k in range(n_free):
                     b = model.elim_order[k]
@@ -296,8 +306,8 @@ def build(t) -> SimpleNamespace:
         size, lever = extent(model, q, env)
         disp_tol = wp.max(model.newton_tol * dt, update_roundoff * size)
         affine_tol = wp.max(model.newton_tol * dt, update_roundoff * size / lever)
-        energy = zero
-        if model.line_search != 0 or model.has_contact != 0:
+        energy = start_energy
+        if (model.line_search != 0 or model.has_contact != 0) and start_known == 0:
             energy = incremental_potential(model, state, control, q, scratch, env,
                                            kinetic_scale, bdf2)
         iterations = int(0)
