@@ -137,7 +137,7 @@ def build(t) -> SimpleNamespace:
             if model.state_coupling != 0:
                 untrusted += add_state_blocks(model, state, control, q, scratch, env, k, bdf2,
                                               hessian)
-        if model.has_contact != 0:
+        if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed this step
             # an active barrier's or friction's curvature changes fast: no last factors
             untrusted += add_contact(model, q, scratch, env, hessian)
             untrusted += add_friction(model, q, scratch, env, hessian)

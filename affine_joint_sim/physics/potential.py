@@ -45,7 +45,7 @@ def build(t) -> SimpleNamespace:
                     e, d1, d2 = coordinate_terms(model, state, control, env, k,
                                                  joint_coordinate(model, q, state, env, k), bdf2)
                     energy += e
-        if model.has_contact != 0:
+        if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed this step
             energy += contact_energy(model, q, scratch, env)
             energy += friction_energy(model, q, scratch, env)
             energy += damping_energy(model, q, scratch, env)
