@@ -29,6 +29,10 @@ __all__ = ['ADVANCE_STEPS', 'STEP_SLACK', 'build']
 
 STEP_SLACK = 0.1     # η: a step along dq keeps this fraction of every shrinking gap
 ADVANCE_STEPS = 64  # conservative advancement steps of an edge or face pair at most
+# Warp passes a struct argument by value: a call the C++ compiler keeps out of line copies the
+# whole Model (and Scratch) each time. The contact stages a step calls whatever is near are
+# inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact)
+INLINE = True
 
 
 def build(t) -> SimpleNamespace:
@@ -335,7 +339,7 @@ def build(t) -> SimpleNamespace:
                 out = at + 1
         return out
 
-    @wp.func
+    @wp.func(inline=INLINE)
     def gather_near(model: Model, scratch: Scratch, env: int, start: int):
         """The pairs within d̂ + body_margin of their body at q_n, ascending, into
         near_pairs from index ``start``; returns how many. Edges and faces are found edge by
@@ -396,7 +400,7 @@ def build(t) -> SimpleNamespace:
                                   first + edges * statics_e + f * statics_v + v, reach, at)
         return at - start
 
-    @wp.func
+    @wp.func(inline=INLINE)
     def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
               along: int):
         """Keep every pair not listed beyond d̂ at q, or with ``along`` on the whole path
@@ -490,7 +494,7 @@ def build(t) -> SimpleNamespace:
             scratch.near_pairs[env, j] = scratch.near_pairs[env, old + j]
         scratch.near_count[env] = fresh
 
-    @wp.func
+    @wp.func(inline=INLINE)
     def lag_friction(model: Model, state: State, scratch: Scratch, env: int):
         """Gathers this step's near pairs (margins of twice each body's predicted ``motion``,
         at least d̂), then per pair closer than d̂ at q_n, frozen for the step: the normal
@@ -736,7 +740,7 @@ def build(t) -> SimpleNamespace:
                     break
         return alpha
 
-    @wp.func
+    @wp.func(inline=INLINE)
     def step_bound(model: Model, scratch: Scratch, env: int):
         """The largest α ≤ 1 at which every pair keeps at least η of its gap along
         q_start + α dq: a point moves on a straight line, its distance to a half-space is
@@ -759,7 +763,7 @@ def build(t) -> SimpleNamespace:
                     alpha = wp.min(alpha, advance_bound(model, scratch, env, p, b))
         return alpha
 
-    @wp.func
+    @wp.func(inline=INLINE)
     def touching(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                  every_point: int):
         """(smallest distance [m] of a pair that may touch, +∞ without any; pairs closer than
