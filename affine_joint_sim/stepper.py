@@ -281,6 +281,7 @@ class Stepper:
         if not self.device.is_cpu:
             wp.synchronize_device(self.device)
         self._downloads.stale()
+        self._contacts = None          # computed again when next asked for
         self._steps += 1
         counts = self._problems.sum(axis=0) if self._pool is not None else self._problems[0]
         if counts[0] != 0:
@@ -319,6 +320,7 @@ class Stepper:
                 self._drive_enabled[:, k] = joint.drive.enabled
         self._uploads.written()
         self._downloads.stale()
+        self._contacts = None          # computed again when next asked for
         self._steps = 0
 
     @property
@@ -492,15 +494,19 @@ class Stepper:
         (``body``, ``other``: the half-space or fixed body, ``point`` [m, world] on the other's
         surface, ``normal`` (unit, towards the body), ``distance`` [m], ``normal_force`` [N],
         ``friction_force`` [N, world, on the body]; physics.contact_report), one list per
-        environment when batched; empty without contact."""
+        environment when batched; empty without contact. Computed once per state: the same
+        lists until the next step or reset (read them, do not change them)."""
         if not self._host.has_contact:
             per_env = [[] for _ in range(self._envs)]
         else:
-            q, q_n, normal, damping = (self._read(name) for name in (
-                'q', 'q_n', 'friction_normal', 'normal_damping'))
-            per_env = [active_contacts(self._host, q[e], q_n[e], normal[e], damping[e],
-                                       self.body_names, self._host.static_names)
-                       for e in range(self._envs)]
+            if self._contacts is None:      # once per state: markers and sensors both ask
+                q, q_n, normal, damping = (self._read(name) for name in (
+                    'q', 'q_n', 'friction_normal', 'normal_damping'))
+                self._contacts = [active_contacts(self._host, q[e], q_n[e], normal[e],
+                                                  damping[e], self.body_names,
+                                                  self._host.static_names)
+                                  for e in range(self._envs)]
+            per_env = self._contacts
         return per_env if self._batched else per_env[0]
 
     @property

@@ -176,6 +176,22 @@ def test_after_a_reset_the_contacts_are_those_of_a_fresh_start():
         np.testing.assert_array_equal(a['friction_force'], b['friction_force'])
 
 
+def test_contacts_are_computed_once_per_state():
+    """Markers and contact sensors both read sim.contacts each frame: one evaluation serves
+    both until the state changes (a reset's fresh contacts: the test above)."""
+    sim = Stepper(_scene(TABLE, {'shape': {'box': [0.1, 0.1, 0.1]},
+                                'position': [0.0, 0.0, 0.105]}))
+    for _ in range(30):
+        sim.step()
+    first = sim.contacts
+    assert len(first) == 4 and sim.contacts is first
+    sim.step()
+    assert sim.contacts is not first and len(sim.contacts) == 4
+    second = sim.contacts
+    sim.reset()
+    assert sim.contacts is not second
+
+
 def _write_obj(path, vertices, faces):
     path.write_text(''.join(f'v {float(x)!r} {float(y)!r} {float(z)!r}\n' for x, y, z in vertices)
                     + ''.join(f'f {a + 1} {b + 1} {c + 1}\n' for a, b, c in faces))
