@@ -790,8 +790,7 @@ def build(t) -> SimpleNamespace:
                 active += 1
         return nearest, active
 
-    return SimpleNamespace(contact_distance=distance, barrier=barrier, pair_gap=pair_gap,
-                           pair_count=pair_count, pair_body=pair_body, cover=cover,
+    return SimpleNamespace(contact_distance=distance, barrier=barrier, cover=cover,
                            gather_near=gather_near,
                            lag_friction=lag_friction, friction_energy=friction_energy,
                            add_friction=add_friction, damping_energy=damping_energy,
