@@ -249,16 +249,21 @@ class SensorSet:
 
     def _contact(self, k: int, rotation, origin, contacts: list) -> tuple:
         """One contact sensor's readings in FIELDS order, from its environment's active
-        contacts and its frame's pose."""
+        contacts and its frame's pose (a contact of two moving bodies pushes the other one
+        back: −f at the same point)."""
         force, torque = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
         body = self.body_names[k]
         for contact in contacts:
-            if contact['body'] != body:
+            if contact['body'] == body:
+                sign = 1.0
+            elif contact['other'] == body:
+                sign = -1.0
+            else:
                 continue
             push = float(contact['normal_force'])
             normal, friction, point = (np.asarray(contact[key], dtype=np.float64).tolist()
                                        for key in ('normal', 'friction_force', 'point'))
-            f = tuple(push * normal[i] + friction[i] for i in range(3))
+            f = tuple(sign * (push * normal[i] + friction[i]) for i in range(3))
             moment = _cross(tuple(point[i] - origin[i] for i in range(3)), f)
             for i in range(3):
                 force[i] += f[i]

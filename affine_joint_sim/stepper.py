@@ -19,9 +19,9 @@ import numpy as np
 import warp as wp
 
 from affine_joint_sim.physics.energy import mechanical_energy
-from affine_joint_sim.physics.fields import (CONTACT_STATS, PROBLEM_COLUMNS, STAT_FLOAT_NAMES,
-                                             STAT_INT_NAMES, allocate, array_sizes,
-                                             device_model)
+from affine_joint_sim.physics.fields import (CONTACT_STATS, COUPLED_STATS, PROBLEM_COLUMNS,
+                                             STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
+                                             array_sizes, device_model)
 from affine_joint_sim.physics.frames import POSE_COLUMNS
 from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
@@ -108,7 +108,7 @@ class Stepper:
             self._pool = ThreadPoolExecutor(len(self._chunks) - 1, 'affine-joint-sim-step')
             weakref.finalize(self, self._pool.shutdown, wait=False)
         self._host = build_model(scene)
-        self._k = step_kernels(scalar_of(scene.solver.precision))
+        self._k = step_kernels(scalar_of(scene.solver.precision), len(self._host.touch_a) > 0)
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
         # a joint's index by name, and the joints that take a command: a control loop sets
         # torques by name every step, so these are looked up, not searched
@@ -481,6 +481,9 @@ class Stepper:
                 stats[name] = bool(stats[name])
         if not self._host.has_contact:
             for name in CONTACT_STATS:
+                del stats[name]
+        if not len(self._host.touch_a):
+            for name in COUPLED_STATS:
                 del stats[name]
         stats['active_terms'] = self._active_terms()
         stats['launches_per_step'] = len(self._chunks)

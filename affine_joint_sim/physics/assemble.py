@@ -137,6 +137,10 @@ def build(t) -> SimpleNamespace:
             if model.state_coupling != 0:
                 untrusted += add_state_blocks(model, state, control, q, scratch, env, k, bdf2,
                                               hessian)
+        if wp.static(t.bodies):     # no contact couples two bodies until one adds its block
+            if hessian != 0:
+                for j in range(model.touch_a.shape[0]):
+                    scratch.block_used[env, j] = 0
         if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed this step
             # an active barrier's or friction's curvature changes fast: no last factors
             untrusted += add_contact(model, q, scratch, env, hessian)

@@ -36,6 +36,7 @@ def build(t) -> SimpleNamespace:
     s_non_finite, s_rejected = _I['non_finite'], _I['step_rejected']
     s_residual, s_gap, s_strain = _F['residual'], _F['joint_gap'], _F['rotation_strain']
     s_distance, s_contacts = _F['min_distance'], _I['contacts']
+    s_inner, s_stalls = _I['inner_iterations'], _I['inner_stalls']
     touching = t.touching
     p_any, p_not_converged, p_non_finite = _P['any'], _P['not_converged'], _P['non_finite']
     p_aliased, p_dropped, p_failures = (_P['angle_aliased'], _P['torque_dropped'],
@@ -146,8 +147,8 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def write_stats(model: Model, state: State, scratch: Scratch, env: int, chunk: int,
                     iterations: int, halvings: int, converged: int, failures: int, aliased: int,
-                    dropped: int, finite: int, rejected: int, residual: scalar, gap: scalar,
-                    strain: scalar):
+                    dropped: int, finite: int, rejected: int, residual: scalar, inner: int,
+                    stalls: int, gap: scalar, strain: scalar):
         """The step's statistics, addressed by the names of physics.fields (with contact: the
         smallest distance to a static thing and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
@@ -160,6 +161,8 @@ def build(t) -> SimpleNamespace:
         state.stats_int[env, s_dropped] = dropped
         state.stats_int[env, s_non_finite] = 1 - finite
         state.stats_int[env, s_rejected] = rejected
+        state.stats_int[env, s_inner] = inner
+        state.stats_int[env, s_stalls] = stalls
         state.stats_float[env, s_residual] = residual
         state.stats_float[env, s_gap] = gap
         state.stats_float[env, s_strain] = strain

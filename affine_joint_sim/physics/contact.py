@@ -1,24 +1,17 @@
-"""Contact of free bodies with static things: half-spaces and fixed bodies' shapes (boxes,
-spheres, capsules, cylinders, triangles). The IPC barrier on each pair's distance, lagged
-smoothed Coulomb friction, their gradients and Hessians mapped into the body's block, the step
-bound along a Newton direction, and the statistics (docs/physics.md#contact).
+"""Contact: the IPC barrier on each pair's distance (``contact_geometry``), lagged smoothed
+Coulomb friction and contact damping, their gradients and Hessians mapped into the bodies'
+blocks, the near-pair list, the step bound along a Newton direction, and the statistics
+(docs/physics.md#contact).
 
-A pair is a contact point and a static thing, a moving edge and a static edge, or a moving
-face and a static vertex (``physics.primitives``), numbered in that order (``pair_gap``). An
-edge's or face's distance is that of its nearest point x̄_c (by the envelope theorem its
-gradient is J(x̄_c)ᵀ n, as for a point).
-
-Static thing g is half-space g for g < planes, else shape g − planes. The distance of point i
-to half-space g is d = n·(p + A x̄) − h − r, linear in the body's q with gradient
-w = J(x̄)ᵀ n; to a shape it is the exact distance of x = p + A x̄ to the convex shape, less r,
-with gradient J(x̄)ᵀ n for n its unit outward direction at x. The barrier (libuipc's form on
-D = d², D̂ = d̂²) b(D) = −κ (D − D̂)² ln(D / D̂) for 0 < d < d̂ (zero beyond) enters the
-incremental potential as dt² b; as a function of d it is convex on (0, d̂), so dt² b''(d) w wᵀ
-is PSD (clamped at 0 against rounding): the whole Hessian against a half-space; against a
-shape its curvature term b'(d) ∇²d (negative semidefinite: b' < 0, and the distance to a convex
-set is convex) is left out, the Gauss–Newton part of IPC's PSD projection. Either adds to one
-diagonal block only: the tree solve stays exact. Every loop is skipped in a scene without
-contact (model.has_contact = 0), and a pair that may not touch (pair_on 0) everywhere.
+The barrier (libuipc's form on D = d², D̂ = d̂²) b(D) = −κ (D − D̂)² ln(D / D̂) for 0 < d < d̂
+(zero beyond) enters the incremental potential as dt² b; as a function of d it is convex on
+(0, d̂), so dt² b''(d) w wᵀ is PSD (clamped at 0 against rounding), w = [J(x̄)ᵀ n; −J(ȳ)ᵀ n]
+the distance's gradient over the pair's bodies: the whole Hessian against a half-space;
+otherwise its curvature term b'(d) ∇²d is left out, the Gauss–Newton part of IPC's PSD
+projection. A pair with a static side adds to one diagonal block only; a pair of two bodies
+also couples their blocks (scratch.contact_block, solved by ``coupled_solve``). Every loop is
+skipped in a scene without contact (model.has_contact = 0), and a pair that may not touch
+everywhere.
 """
 
 from types import SimpleNamespace
@@ -37,311 +30,145 @@ INLINE = True
 
 def build(t) -> SimpleNamespace:
     """Warp functions of contact for the types namespace ``t``."""
-    vec3, vec12, scalar = t.vec3, t.vec12, t.scalar
+    vec3, vec12, mat12, scalar = t.vec3, t.vec12, t.mat12, t.scalar
     zero, half, one, two, three, four = t.zero, t.half, t.one, t.two, t.three, t.four
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
     world_point, jacobian_transpose, log = t.world_point, t.jacobian_transpose, t.log
     affine = t.affine
+    distance, statics, point_pairs = t.contact_distance, t.statics, t.point_pairs
+    static_pairs, pair_count, pair_bodies = t.static_pairs, t.pair_count, t.pair_bodies
+    pair_gap, gap_at, other_state = t.pair_gap, t.gap_at, t.other_state
+    pair_weight, motion, reach = t.pair_weight, t.motion, t.reach
     keep = scalar(1.0 - STEP_SLACK)
+    bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
     infinity = scalar(float('inf'))
 
-    @wp.func
-    def sign_of(x: scalar):
-        """+1 for x ≥ 0, else −1."""
-        out = one
-        if x < zero:
-            out = -one
-        return out
-
-    @wp.func
-    def triangle_weights(x: vec3, a: vec3, b: vec3, c: vec3):
-        """The barycentric weights (of a, b, c) of the point of triangle abc nearest to x, by
-        the Voronoi region x is in (a vertex, an edge or the face)."""
-        ab = b - a
-        ac = c - a
-        d1 = wp.dot(ab, x - a)
-        d2 = wp.dot(ac, x - a)
-        d3 = wp.dot(ab, x - b)
-        d4 = wp.dot(ac, x - b)
-        d5 = wp.dot(ab, x - c)
-        d6 = wp.dot(ac, x - c)
-        vc = d1 * d4 - d3 * d2
-        vb = d5 * d2 - d1 * d6
-        va = d3 * d6 - d5 * d4
-        weights = vec3(one, zero, zero)
-        if d1 <= zero and d2 <= zero:
-            weights = vec3(one, zero, zero)
-        elif d3 >= zero and d4 <= d3:
-            weights = vec3(zero, one, zero)
-        elif d6 >= zero and d5 <= d6:
-            weights = vec3(zero, zero, one)
-        elif vc <= zero and d1 >= zero and d3 <= zero:
-            s = d1 / (d1 - d3)
-            weights = vec3(one - s, s, zero)
-        elif vb <= zero and d2 >= zero and d6 <= zero:
-            s = d2 / (d2 - d6)
-            weights = vec3(one - s, zero, s)
-        elif va <= zero and d4 - d3 >= zero and d5 - d6 >= zero:
-            s = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-            weights = vec3(zero, one - s, s)
-        else:
-            total = va + vb + vc
-            weights = vec3(va / total, vb / total, vc / total)
-        return weights
-
-    @wp.func
-    def shape_separation(model: Model, x: vec3, s: int):
-        """(signed distance [m] of the world point x to shape s's surface, negative inside;
-        its unit outward direction n, the distance's gradient in x). A triangle (kind 5, its
-        vertices the columns of shape_rotation) has no inside: its distance is ≥ 0."""
-        rot = model.shape_rotation[s]
-        size = model.shape_size[s]
-        kind = model.shape_kind[s]
-        if kind == 5:
-            a = vec3(rot[0, 0], rot[1, 0], rot[2, 0])
-            b = vec3(rot[0, 1], rot[1, 1], rot[2, 1])
-            c = vec3(rot[0, 2], rot[1, 2], rot[2, 2])
-            weights = triangle_weights(x, a, b, c)
-            gap = x - (weights[0] * a + weights[1] * b + weights[2] * c)
-            length = wp.length(gap)
-            away = vec3(zero, zero, one)
-            if length > zero:
-                away = gap / length
-            return length, away
-        local = wp.transpose(rot) @ (x - model.shape_center[s])
-        d = zero
-        n = vec3(zero, zero, one)
-        if kind == 1:               # box: the clamped excess over its half sides
-            e = vec3(wp.max(wp.abs(local[0]) - size[0], zero),
-                     wp.max(wp.abs(local[1]) - size[1], zero),
-                     wp.max(wp.abs(local[2]) - size[2], zero))
-            d = wp.length(e)
-            if d > zero:
-                n = vec3(sign_of(local[0]) * e[0], sign_of(local[1]) * e[1],
-                         sign_of(local[2]) * e[2]) / d
-            else:                   # inside: the nearest face
-                d = wp.abs(local[0]) - size[0]
-                n = vec3(sign_of(local[0]), zero, zero)
-                if wp.abs(local[1]) - size[1] > d:
-                    d = wp.abs(local[1]) - size[1]
-                    n = vec3(zero, sign_of(local[1]), zero)
-                if wp.abs(local[2]) - size[2] > d:
-                    d = wp.abs(local[2]) - size[2]
-                    n = vec3(zero, zero, sign_of(local[2]))
-        elif kind == 4:             # cylinder along z: radial and axial excess
-            radial = wp.sqrt(local[0] * local[0] + local[1] * local[1])
-            out = vec3(one, zero, zero)
-            if radial > zero:
-                out = vec3(local[0] / radial, local[1] / radial, zero)
-            dr = radial - size[0]
-            dz = wp.abs(local[2]) - size[1]
-            up = vec3(zero, zero, sign_of(local[2]))
-            if dr > zero and dz > zero:
-                d = wp.sqrt(dr * dr + dz * dz)
-                n = (dr * out + dz * up) / d
-            elif dr > dz:
-                d = dr
-                n = out
-            else:
-                d = dz
-                n = up
-        else:                       # sphere (2), capsule (3): from the nearest axis point
-            nearest = vec3(zero, zero, zero)
-            if kind == 3:
-                nearest = vec3(zero, zero, wp.clamp(local[2], -size[1], size[1]))
-            gap = local - nearest
-            length = wp.length(gap)
-            if length > zero:
-                n = gap / length
-            d = length - size[0]
-        return d, rot @ n
-
-    @wp.func
-    def distance(model: Model, q: vec12, i: int, g: int):
-        """(distance [m] of contact point i, on a body at state q, to static thing g; the unit
-        direction n in which it grows fastest)."""
-        x = world_point(q, model.point_rest[i])
-        planes = model.plane_offset.shape[0]
-        if g < planes:
-            return (wp.dot(model.plane_normal[g], x) - model.plane_offset[g]
-                    - model.point_radius[i]), model.plane_normal[g]
-        d, n = shape_separation(model, x, g - planes)
-        return d - model.point_radius[i], n
-
-    @wp.func
-    def statics(model: Model):
-        """Static things: half-spaces, then shapes."""
-        return model.plane_offset.shape[0] + model.shape_kind.shape[0]
-
-    @wp.func
-    def point_pairs(model: Model):
-        """Pairs of a contact point and a static thing: pair i·statics + g."""
-        return model.point_body.shape[0] * statics(model)
-
-    @wp.func
-    def edge_pairs(model: Model):
-        """Pairs of a moving edge and a static edge, after the point pairs."""
-        return model.edge_body.shape[0] * model.static_edge_a.shape[0]
-
-    @wp.func
-    def pair_count(model: Model):
-        """Every pair: point pairs, edge pairs, then (moving face, static vertex) pairs."""
-        return (point_pairs(model) + edge_pairs(model)
-                + model.face_body.shape[0] * model.static_vertex.shape[0])
-
-    @wp.func
-    def pair_body(model: Model, p: int):
-        """The moving body of pair p."""
-        body = int(0)
-        if p < point_pairs(model):
-            body = model.point_body[p / statics(model)]
-        elif p < point_pairs(model) + edge_pairs(model):
-            body = model.edge_body[(p - point_pairs(model)) / model.static_edge_a.shape[0]]
-        else:
-            k = p - point_pairs(model) - edge_pairs(model)
-            body = model.face_body[k / model.static_vertex.shape[0]]
-        return body
-
-    @wp.func
-    def segment_params(a: vec3, b: vec3, c: vec3, e: vec3):
-        """(s, t) ∈ [0, 1]² of the nearest points a + s (b − a), c + t (e − c) of two segments
-        (zero-length ones included; parallel ones: one nearest pair of the many)."""
-        d1 = b - a
-        d2 = e - c
-        r = a - c
-        aa = wp.dot(d1, d1)
-        ee = wp.dot(d2, d2)
-        f = wp.dot(d2, r)
-        s = zero
-        t = zero
-        if aa <= zero and ee > zero:
-            t = wp.clamp(f / ee, zero, one)
-        elif aa > zero:
-            cc = wp.dot(d1, r)
-            if ee <= zero:
-                s = wp.clamp(-cc / aa, zero, one)
-            else:
-                bb = wp.dot(d1, d2)
-                denominator = aa * ee - bb * bb
-                if denominator > zero:
-                    s = wp.clamp((bb * f - cc * ee) / denominator, zero, one)
-                t = (bb * s + f) / ee
-                if t < zero:
-                    t = zero
-                    s = wp.clamp(-cc / aa, zero, one)
-                elif t > one:
-                    t = one
-                    s = wp.clamp((bb - cc) / aa, zero, one)
-        return s, t
-
-    @wp.func
-    def pair_gap(model: Model, q: vec12, p: int):
-        """(distance d [m] of pair p with its body at state q; the unit direction n [world]
-        in which it grows fastest, from the static side towards the body; the rest point
-        x̄ [m] whose motion changes d, its gradient J(x̄)ᵀ n; the radius [m] of the moving
-        side: the surface point that touches is x̄ − r A⁻¹ n). A point's x̄ is its own; an
-        edge's the nearest point of its segment; a face's the nearest point of its triangle."""
-        d = zero
-        n = vec3(zero, zero, one)
-        rest = vec3(zero, zero, zero)
-        radius = zero
-        if p < point_pairs(model):
-            i = p / statics(model)
-            d, n = distance(model, q, i, p - i * statics(model))
-            rest = model.point_rest[i]
-            radius = model.point_radius[i]
-        elif p < point_pairs(model) + edge_pairs(model):
-            k = p - point_pairs(model)
-            e = k / model.static_edge_a.shape[0]
-            s = k - e * model.static_edge_a.shape[0]
-            ea = model.edge_a[e]
-            eb = model.edge_b[e]
-            c = model.static_edge_a[s]
-            u, w = segment_params(world_point(q, ea), world_point(q, eb), c,
-                                  model.static_edge_b[s])
-            rest = ea + u * (eb - ea)
-            gap = world_point(q, rest) - (c + w * (model.static_edge_b[s] - c))
-            length = wp.length(gap)
-            if length > zero:
-                n = gap / length
-            radius = model.edge_radius[e]
-            d = length - radius - model.static_edge_radius[s]
-        else:
-            k = p - point_pairs(model) - edge_pairs(model)
-            f = k / model.static_vertex.shape[0]
-            v = k - f * model.static_vertex.shape[0]
-            corners = model.face_rest[f]
-            a = vec3(corners[0, 0], corners[1, 0], corners[2, 0])
-            b = vec3(corners[0, 1], corners[1, 1], corners[2, 1])
-            c = vec3(corners[0, 2], corners[1, 2], corners[2, 2])
-            weights = triangle_weights(model.static_vertex[v], world_point(q, a),
-                                       world_point(q, b), world_point(q, c))
-            rest = weights[0] * a + weights[1] * b + weights[2] * c
-            gap = world_point(q, rest) - model.static_vertex[v]
-            length = wp.length(gap)
-            if length > zero:
-                n = gap / length
-            d = length - model.static_vertex_radius[v]
-        return d, n, rest, radius
-
-    @wp.func
-    def pair_weight(model: Model, q_n: vec12, p: int):
-        """The weight of pair p's barrier for this step: 1, but for an edge pair IPC's
-        near-parallel mollifier at q_n (held for the step, like friction): with
-        c = |e₀ × e₁|² and ε = 10⁻³ |ē₀|² |e₁|² (rest lengths), (2 − c/ε) c/ε below ε. Two
-        near-parallel edges have no single nearest pair; their ends' points and faces carry
-        the contact."""
-        weight = one
-        if p >= point_pairs(model) and p < point_pairs(model) + edge_pairs(model):
-            k = p - point_pairs(model)
-            e = k / model.static_edge_a.shape[0]
-            s = k - e * model.static_edge_a.shape[0]
-            own = model.edge_b[e] - model.edge_a[e]
-            other = model.static_edge_b[s] - model.static_edge_a[s]
-            limit = scalar(1.0e-3) * wp.dot(own, own) * wp.dot(other, other)
-            cross = wp.cross(affine(q_n) @ own, other)
-            if wp.dot(cross, cross) < limit:
-                ratio = wp.dot(cross, cross) / limit
-                weight = (two - ratio) * ratio
-        return weight
-
-    @wp.func
+    @wp.func(inline=True)
     def listed(model: Model, scratch: Scratch, env: int):
         """How many pairs this step evaluates: the near pairs (``gather_near``)."""
         return scratch.near_count[env]
 
-    @wp.func
+    @wp.func(inline=True)
     def listed_pair(model: Model, scratch: Scratch, env: int, k: int):
         """The k-th pair this step evaluates (ascending)."""
         return scratch.near_pairs[env, k]
 
-    @wp.func
-    def motion(model: Model, b: int, dq: vec12):
-        """A bound [m] on how far a change dq of body b's state moves any of its contact
-        points or any point of its edges and faces: |Δp| + ‖ΔA‖_F ρ (ρ: body_reach)."""
-        a = affine(dq)
-        frobenius = zero
-        for r in range(3):
-            for c in range(3):
-                frobenius += a[r, c] * a[r, c]
-        return (wp.length(vec3(dq[0], dq[1], dq[2]))
-                + wp.sqrt(frobenius) * model.body_reach[b])
+    @wp.func(inline=True)
+    def pair_on(model: Model, p: int):
+        """Whether pair p may touch: a static pair's model.pair_on; a pair of bodies is listed
+        only for bodies that may touch each other."""
+        on = True
+        if p < static_pairs(model):
+            on = model.pair_on[p] != 0
+        return on
+
+    @wp.func(inline=True)
+    def pair_friction(model: Model, p: int, body: int, other: int):
+        """Coulomb μ of pair p (bodies ``body`` and ``other``, −1 for a static side)."""
+        mu = zero
+        if other < 0:
+            mu = model.pair_friction[p]
+        else:
+            mu = model.body_friction[body, other]
+        return mu
 
     @wp.func
-    def add_near(model: Model, scratch: Scratch, env: int, p: int, reach: scalar, at: int):
+    def add_near(model: Model, scratch: Scratch, env: int, p: int, reach_: scalar, at: int):
         """Write pair p to near_pairs[at] if it may touch and its distance at q_n is below
-        ``reach`` [m]; returns the next free index."""
+        ``reach_`` [m]; returns the next free index."""
         out = at
-        if model.pair_on[p] != 0:
-            d, n, rest, radius = pair_gap(model, scratch.q_n[env, pair_body(model, p)], p)
-            if d < reach:
+        if pair_on(model, p):
+            d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_n, env, p)
+            if d < reach_:
                 scratch.near_pairs[env, at] = p
                 out = at + 1
         return out
 
+    @wp.func
+    def spread(q: vec12):
+        """A bound on |A x| / |x| (A's largest singular value): the square root of the largest
+        Gershgorin row sum of AᵀA (1 to rounding for a rotation)."""
+        a = affine(q)
+        g = wp.transpose(a) @ a
+        most = zero
+        for r in range(3):
+            most = wp.max(most, wp.abs(g[r, 0]) + wp.abs(g[r, 1]) + wp.abs(g[r, 2]))
+        return wp.sqrt(most)
+
+    @wp.func
+    def place_primitives(model: Model, scratch: Scratch, env: int, b: int):
+        """Body b's contact points, edge balls and face balls at q_n into scratch (the broad
+        phase of pairs of bodies)."""
+        q = scratch.q_n[env, b]
+        for i in range(model.body_first_point[b], model.body_first_point[b + 1]):
+            scratch.point_world[env, i] = world_point(q, model.point_rest[i])
+        for e in range(model.body_first_edge[b], model.body_first_edge[b + 1]):
+            end_a = world_point(q, model.edge_a[e])
+            end_b = world_point(q, model.edge_b[e])
+            scratch.edge_centre[env, e] = half * (end_a + end_b)
+            scratch.edge_size[env, e] = half * wp.length(end_b - end_a) + model.edge_radius[e]
+        for f in range(model.body_first_face[b], model.body_first_face[b + 1]):
+            corners = model.face_rest[f]
+            c0 = world_point(q, vec3(corners[0, 0], corners[1, 0], corners[2, 0]))
+            c1 = world_point(q, vec3(corners[0, 1], corners[1, 1], corners[2, 1]))
+            c2 = world_point(q, vec3(corners[0, 2], corners[1, 2], corners[2, 2]))
+            centre = (c0 + c1 + c2) / three
+            scratch.face_centre[env, f] = centre
+            scratch.face_size[env, f] = wp.max(wp.length(c0 - centre), wp.max(
+                wp.length(c1 - centre), wp.length(c2 - centre)))
+
+    @wp.func
+    def gather_faces(model: Model, scratch: Scratch, env: int, a: int, b: int, reach_: scalar,
+                     at: int):
+        """The (point of body a, face of body b) pairs within ``reach_`` at q_n into
+        near_pairs from index ``at`` (bounding spheres first); returns the next free index."""
+        out = at
+        faces = model.face_body.shape[0]
+        for i in range(model.body_first_point[a], model.body_first_point[a + 1]):
+            x = scratch.point_world[env, i]
+            for f in range(model.body_first_face[b], model.body_first_face[b + 1]):
+                if (wp.length(x - scratch.face_centre[env, f]) - scratch.face_size[env, f]
+                        - model.point_radius[i] < reach_):
+                    out = add_near(model, scratch, env, static_pairs(model) + i * faces + f,
+                                   reach_, out)
+        return out
+
+    @wp.func
+    def gather_bodies(model: Model, scratch: Scratch, env: int, start: int):
+        """The pairs of bodies within d̂ + both bodies' margins at q_n into near_pairs from
+        index ``start``: per pair of bodies that may touch, whose bounding spheres are that
+        near, its points against the other's faces both ways and its edges against the
+        other's; returns the next free index."""
+        at = start
+        for b in range(model.body_reach.shape[0]):
+            if model.body_first_point[b] < model.body_first_point[b + 1]:
+                place_primitives(model, scratch, env, b)
+        first = static_pairs(model) + model.point_body.shape[0] * model.face_body.shape[0]
+        edges = model.edge_body.shape[0]
+        for j in range(model.touch_a.shape[0]):
+            a = model.touch_a[j]
+            b = model.touch_b[j]
+            reach_ = model.contact_d_hat + scratch.body_margin[env, a] + scratch.body_margin[env, b]
+            qa = scratch.q_n[env, a]
+            qb = scratch.q_n[env, b]
+            apart = (wp.length(vec3(qa[0] - qb[0], qa[1] - qb[1], qa[2] - qb[2]))
+                     - model.body_bound[a] * spread(qa) - model.body_bound[b] * spread(qb))
+            if apart < reach_:
+                at = gather_faces(model, scratch, env, a, b, reach_, at)
+                at = gather_faces(model, scratch, env, b, a, reach_, at)
+                for e in range(model.body_first_edge[a], model.body_first_edge[a + 1]):
+                    centre = scratch.edge_centre[env, e]
+                    size = scratch.edge_size[env, e]
+                    for s in range(model.body_first_edge[b], model.body_first_edge[b + 1]):
+                        if (wp.length(centre - scratch.edge_centre[env, s]) - size
+                                - scratch.edge_size[env, s] < reach_):
+                            at = add_near(model, scratch, env, first + e * edges + s, reach_, at)
+        return at
+
     @wp.func(inline=INLINE)
     def gather_near(model: Model, scratch: Scratch, env: int, start: int):
-        """The pairs within d̂ + body_margin of their body at q_n, ascending, into
+        """The pairs within d̂ + body_margin of their body (of both bodies for a pair of
+        bodies: ``gather_bodies``) at q_n, the static ones first and ascending, into
         near_pairs from index ``start``; returns how many. Edges and faces are found edge by
         edge and face by face: a pair is not evaluated where the moving side's bounding
         sphere at q_n (about its midpoint or centroid) is farther from the static edge or
@@ -398,6 +225,8 @@ def build(t) -> SimpleNamespace:
                 if apart < reach:
                     at = add_near(model, scratch, env,
                                   first + edges * statics_e + f * statics_v + v, reach, at)
+        if wp.static(bodies):
+            at = gather_bodies(model, scratch, env, at)
         return at - start
 
     @wp.func(inline=INLINE)
@@ -419,11 +248,6 @@ def build(t) -> SimpleNamespace:
                     wider = 1
             if wider != 0:
                 scratch.near_count[env] = gather_near(model, scratch, env, 0)
-
-    @wp.func
-    def pair_on(model: Model, p: int):
-        """Whether pair p may touch (see the model's pair_on)."""
-        return model.pair_on[p] != 0
 
     @wp.func
     def tangent_of(n: vec3):
@@ -478,21 +302,37 @@ def build(t) -> SimpleNamespace:
         return one / inverse
 
     @wp.func
-    def retire(scratch: Scratch, env: int, old: int, fresh: int):
+    def retire(model: Model, scratch: Scratch, env: int, old: int, fresh: int):
         """Zero the lagged forces of the pairs in near_pairs[0, old) that are not in
-        near_pairs[old, old + fresh) (both ascending), then move the fresh list to the front:
-        only listed pairs ever hold lagged forces."""
-        k = int(old)
+        near_pairs[old, old + fresh) (marked in scratch.pair_mark meanwhile), then move the
+        fresh list to the front: only listed pairs ever hold lagged forces."""
+        for k in range(old, old + fresh):
+            scratch.pair_mark[env, scratch.near_pairs[env, k]] = 1
         for j in range(old):
             p = scratch.near_pairs[env, j]
-            while k < old + fresh and scratch.near_pairs[env, k] < p:
-                k += 1
-            if k >= old + fresh or scratch.near_pairs[env, k] != p:
+            if scratch.pair_mark[env, p] == 0:
                 scratch.friction_normal[env, p] = zero
                 scratch.normal_damping[env, p] = zero
         for j in range(fresh):
-            scratch.near_pairs[env, j] = scratch.near_pairs[env, old + j]
+            p = scratch.near_pairs[env, old + j]
+            scratch.pair_mark[env, p] = 0
+            scratch.near_pairs[env, j] = p
         scratch.near_count[env] = fresh
+
+    @wp.func
+    def pair_mass(model: Model, scratch: Scratch, env: int, body: int, other: int,
+                  rest: vec3, radius: scalar, rest_other: vec3, radius_other: scalar, n: vec3):
+        """m_eff [kg] of a pair along its normal n at q_n: ``point_mass`` of its body at the
+        touching point, in series with the other body's where that moves."""
+        q_n = scratch.q_n[env, body]
+        mass = point_mass(model, body, q_n, touch_rest(q_n, rest, radius, n), n)
+        if wp.static(bodies):
+            if other >= 0:
+                q_o = scratch.q_n[env, other]
+                mass_o = point_mass(model, other, q_o,
+                                    touch_rest(q_o, rest_other, radius_other, -n), n)
+                mass = one / (one / mass + one / mass_o)
+        return mass
 
     @wp.func(inline=INLINE)
     def lag_friction(model: Model, state: State, scratch: Scratch, env: int):
@@ -512,37 +352,72 @@ def build(t) -> SimpleNamespace:
         fresh = gather_near(model, scratch, env, old)
         for k in range(old, old + fresh):
             p = scratch.near_pairs[env, k]
-            b = pair_body(model, p)
-            qb = scratch.q_n[env, b]
+            body, other = pair_bodies(model, p)
+            qb = scratch.q_n[env, body]
+            qo = other_state(scratch.q_n, env, body, other)
             force = zero
             damping = zero
             last_damping = scratch.normal_damping[env, p]
-            d, n, rest, radius = pair_gap(model, qb, p)
+            d, n, rest, radius, rest_o, radius_o = pair_gap(model, qb, qo, p)
             if d > zero and d < model.contact_d_hat:
                 e, b1, b2 = barrier(model, d)
-                weight = pair_weight(model, qb, p)
+                weight = pair_weight(model, qb, qo, p)
                 force = -model.dt * model.dt * weight * b1
                 if last_damping > zero:
-                    d_prev, n_prev, rest_prev, r_prev = pair_gap(
-                        model, state.q_prev[env, b], p)
+                    d_prev, n_prev, r_prev, rr_prev, ro_prev, rro_prev = gap_at(
+                        model, state.q_prev, env, p)
                     force += wp.min(last_damping * wp.max(d_prev - d, zero), force)
                 if model.contact_damping > zero:
-                    mass = point_mass(model, b, qb, touch_rest(qb, rest, radius, n), n)
+                    mass = pair_mass(model, scratch, env, body, other, rest, radius, rest_o,
+                                     radius_o, n)
                     damping = (two * model.contact_damping
                                * wp.sqrt(wp.max(weight * b2, zero) * mass) * model.dt)
             scratch.friction_normal[env, p] = force
             scratch.normal_damping[env, p] = damping
-        retire(scratch, env, old, fresh)
+        retire(model, scratch, env, old, fresh)
+
+    @wp.func
+    def push(scratch: Scratch, env: int, body: int, other: int, coefficient: scalar,
+             w: vec12, w_other: vec12):
+        """−coefficient·∇ into scratch.rhs of a pair's bodies (gradient w, w_other)."""
+        scratch.rhs[env, body] -= coefficient * w
+        if wp.static(bodies):
+            if other >= 0:
+                scratch.rhs[env, other] -= coefficient * w_other
+
+    @wp.func
+    def couple(model: Model, scratch: Scratch, env: int, body: int, other: int, block: mat12):
+        """Add H[body, other] = ``block`` to the pair of bodies' coupling block (stored as
+        H[touch_a, touch_b]); the first this iterate replaces what the last one left."""
+        j = model.touch_slot[body, other]
+        oriented = block
+        if model.touch_a[j] != body:
+            oriented = wp.transpose(block)
+        if scratch.block_used[env, j] == 0:
+            scratch.contact_block[env, j] = oriented
+            scratch.block_used[env, j] = 1
+        else:
+            scratch.contact_block[env, j] += oriented
+
+    @wp.func
+    def stiffen(model: Model, scratch: Scratch, env: int, body: int, other: int, c: scalar,
+                w: vec12, w_other: vec12):
+        """c w wᵀ into the Hessian of a pair's bodies: diagonal blocks and, for two bodies,
+        their coupling c w w_otherᵀ."""
+        scratch.hessian[env, body] += wp.outer(c * w, w)
+        if wp.static(bodies):
+            if other >= 0:
+                scratch.hessian[env, other] += wp.outer(c * w_other, w_other)
+                couple(model, scratch, env, body, other, wp.outer(c * w, w_other))
 
     @wp.func
     def approach(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                  p: int):
         """(min(d(q) − d(q_n), 0) [m]: how far pair p closed since the step's start, 0 while
-        it separates; its normal n and rest point x̄ at q)."""
-        b = pair_body(model, p)
-        d, n, rest, radius = pair_gap(model, q[env, b], p)
-        d_n, n_n, rest_n, radius_n = pair_gap(model, scratch.q_n[env, b], p)
-        return wp.min(d - d_n, zero), n, rest
+        it separates; its normal n and rest points x̄, ȳ at q)."""
+        d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
+        d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(model, scratch.q_n, env, p)
+        return wp.min(d - d_n, zero), n, rest, rest_o
 
     @wp.func
     def damping_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
@@ -555,7 +430,7 @@ def build(t) -> SimpleNamespace:
             p = listed_pair(model, scratch, env, k)
             weight = scratch.normal_damping[env, p]
             if weight > zero:
-                closed, n, rest = approach(model, q, scratch, env, p)
+                closed, n, rest, rest_o = approach(model, q, scratch, env, p)
                 energy += half * weight * closed * closed
         return energy
 
@@ -563,34 +438,45 @@ def build(t) -> SimpleNamespace:
     def add_damping(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                     hessian: int):
         """Contact damping's gradient c dt min(d − d_n, 0) w into scratch.rhs and, while the
-        pair approaches, c dt w wᵀ (w = J(x̄)ᵀ n; a shape's curvature left out, as for the
-        barrier)."""
+        pair approaches, c dt w wᵀ (curvature left out, as for the barrier)."""
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             weight = scratch.normal_damping[env, p]
             if weight > zero:
-                closed, n, rest = approach(model, q, scratch, env, p)
+                closed, n, rest, rest_o = approach(model, q, scratch, env, p)
                 if closed < zero:
-                    b = pair_body(model, p)
+                    body, other = pair_bodies(model, p)
                     w = jacobian_transpose(rest, n)
-                    scratch.rhs[env, b] -= weight * closed * w
+                    w_o = -jacobian_transpose(rest_o, n)
+                    push(scratch, env, body, other, weight * closed, w, w_o)
                     if hessian != 0:
-                        scratch.hessian[env, b] += wp.outer(weight * w, w)
+                        stiffen(model, scratch, env, body, other, weight, w, w_o)
 
     @wp.func
-    def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int):
-        """(u₁, u₂, w₁, w₂): the tangential displacement [m] since the start of the step, along
-        pair p's friction basis (t₁, t₂ = n × t₁) lagged at q_n, of the material point that
-        touches (``touch_rest`` at q_n: a sphere's or capsule's surface point, so friction
-        turns it), and its gradients J(x̄_c)ᵀ t."""
-        b = pair_body(model, p)
-        d, n, rest, radius = pair_gap(model, scratch.q_n[env, b], p)
-        rest = touch_rest(scratch.q_n[env, b], rest, radius, n)
-        moved = world_point(q[env, b], rest) - world_point(scratch.q_n[env, b], rest)
+    def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int,
+             body: int, other: int):
+        """(u₁, u₂, w₁, w₂, v₁, v₂): the tangential displacement [m] since the start of the
+        step, along pair p's friction basis (t₁, t₂ = n × t₁) lagged at q_n, of the material
+        point that touches (``touch_rest`` at q_n: a sphere's or capsule's surface point, so
+        friction turns it), relative to the other body's where that moves; its gradients
+        J(x̄_c)ᵀ t over the body and −J(ȳ_c)ᵀ t over the other."""
+        q_n = scratch.q_n[env, body]
+        d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_n, env, p)
+        rest = touch_rest(q_n, rest, radius, n)
+        moved = world_point(q[env, body], rest) - world_point(q_n, rest)
         t1 = pair_tangent(model, p, n)
         t2 = wp.cross(n, t1)
+        v1 = vec12()
+        v2 = vec12()
+        if wp.static(bodies):
+            if other >= 0:
+                q_o = scratch.q_n[env, other]
+                rest_o = touch_rest(q_o, rest_o, radius_o, -n)
+                moved -= world_point(q[env, other], rest_o) - world_point(q_o, rest_o)
+                v1 = -jacobian_transpose(rest_o, t1)
+                v2 = -jacobian_transpose(rest_o, t2)
         return (wp.dot(t1, moved), wp.dot(t2, moved), jacobian_transpose(rest, t1),
-                jacobian_transpose(rest, t2))
+                jacobian_transpose(rest, t2), v1, v2)
 
     @wp.func
     def smooth_friction(y: scalar, eps: scalar):
@@ -616,29 +502,35 @@ def build(t) -> SimpleNamespace:
             p = listed_pair(model, scratch, env, k)
             force = scratch.friction_normal[env, p]
             if force > zero:
-                u1, u2, w1, w2 = slip(model, q, scratch, env, p)
+                body, other = pair_bodies(model, p)
+                u1, u2, w1, w2, v1, v2 = slip(model, q, scratch, env, p, body, other)
                 f0, f1_over_y = smooth_friction(wp.sqrt(u1 * u1 + u2 * u2), eps)
-                energy += model.pair_friction[p] * force * f0
+                energy += pair_friction(model, p, body, other) * force * f0
         return energy
 
     @wp.func
     def add_friction(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                      hessian: int):
         """Friction's gradient into scratch.rhs and, with ``hessian``, its PSD Hessian
-        (IPC's closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂]) into the
-        diagonal blocks. Returns the number of pairs with friction."""
+        (IPC's closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂] over the
+        pair's bodies) into the diagonal blocks and a pair of bodies' coupling. Returns the
+        number of pairs with friction."""
         eps = model.contact_eps_velocity * model.dt
         count = int(0)
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            weight = model.pair_friction[p] * scratch.friction_normal[env, p]
+            force = scratch.friction_normal[env, p]
+            body, other = pair_bodies(model, p)
+            weight = zero
+            if force > zero:
+                weight = pair_friction(model, p, body, other) * force
             if weight > zero:
-                b = pair_body(model, p)
                 count += 1
-                u1, u2, w1, w2 = slip(model, q, scratch, env, p)
+                u1, u2, w1, w2, v1, v2 = slip(model, q, scratch, env, p, body, other)
                 y = wp.sqrt(u1 * u1 + u2 * u2)
                 f0, f1_over_y = smooth_friction(y, eps)
-                scratch.rhs[env, b] -= weight * f1_over_y * (u1 * w1 + u2 * w2)
+                push(scratch, env, body, other, weight * f1_over_y, u1 * w1 + u2 * w2,
+                     u1 * v1 + u2 * v2)
                 if hessian != 0:
                     h11 = weight * f1_over_y
                     h22 = h11
@@ -653,8 +545,16 @@ def build(t) -> SimpleNamespace:
                         h11 -= c * u1 * u1
                         h22 -= c * u2 * u2
                         h12 = -c * u1 * u2
-                    scratch.hessian[env, b] += (wp.outer(h11 * w1 + h12 * w2, w1)
-                                                + wp.outer(h12 * w1 + h22 * w2, w2))
+                    scratch.hessian[env, body] += (wp.outer(h11 * w1 + h12 * w2, w1)
+                                                   + wp.outer(h12 * w1 + h22 * w2, w2))
+                    if wp.static(bodies):
+                        if other >= 0:
+                            scratch.hessian[env, other] += (
+                                wp.outer(h11 * v1 + h12 * v2, v1)
+                                + wp.outer(h12 * v1 + h22 * v2, v2))
+                            couple(model, scratch, env, body, other,
+                                   wp.outer(h11 * w1 + h12 * w2, v1)
+                                   + wp.outer(h12 * w1 + h22 * w2, v2))
         return count
 
     @wp.func
@@ -665,13 +565,14 @@ def build(t) -> SimpleNamespace:
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             if pair_on(model, p):
-                b = pair_body(model, p)
-                d, n, rest, radius = pair_gap(model, q[env, b], p)
+                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
                 if d <= zero:
                     energy = infinity
                 elif d < model.contact_d_hat:
                     e, b1, b2 = barrier(model, d)
-                    weight = pair_weight(model, scratch.q_n[env, b], p)
+                    body, other = pair_bodies(model, p)
+                    weight = pair_weight(model, scratch.q_n[env, body],
+                                         other_state(scratch.q_n, env, body, other), p)
                     energy += model.dt * model.dt * weight * e
         return energy
 
@@ -679,50 +580,40 @@ def build(t) -> SimpleNamespace:
     def add_contact(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                     hessian: int):
         """The barrier's gradient into scratch.rhs and, with ``hessian``, its Hessian into the
-        diagonal blocks. Returns the number of active pairs."""
+        diagonal blocks and a pair of bodies' coupling. Returns the number of active pairs."""
         active = int(0)
         dt2 = model.dt * model.dt
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             if pair_on(model, p):
-                b = pair_body(model, p)
-                d, n, rest, radius = pair_gap(model, q[env, b], p)
+                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
                 if d > zero and d < model.contact_d_hat:
                     active += 1
                     e, b1, b2 = barrier(model, d)
-                    weight = dt2 * pair_weight(model, scratch.q_n[env, b], p)
+                    body, other = pair_bodies(model, p)
+                    weight = dt2 * pair_weight(model, scratch.q_n[env, body],
+                                               other_state(scratch.q_n, env, body, other), p)
                     w = jacobian_transpose(rest, n)
-                    scratch.rhs[env, b] -= weight * b1 * w
+                    w_o = -jacobian_transpose(rest_o, n)
+                    push(scratch, env, body, other, weight * b1, w, w_o)
                     if hessian != 0:
-                        scratch.hessian[env, b] += wp.outer(weight * wp.max(b2, zero) * w, w)
+                        stiffen(model, scratch, env, body, other, weight * wp.max(b2, zero), w,
+                                w_o)
         return active
 
     @wp.func
-    def reach(model: Model, dq: vec12, p: int):
-        """The most [m] any point of pair p's moving edge or face moves under dq: the largest
-        of its corners' |J(x̄) dq| (a segment's or triangle's points are their corners'
-        convex combinations)."""
-        k = p - point_pairs(model)
-        most = zero
-        if k < edge_pairs(model):
-            e = k / model.static_edge_a.shape[0]
-            most = wp.max(wp.length(world_point(dq, model.edge_a[e])),
-                          wp.length(world_point(dq, model.edge_b[e])))
-        else:
-            corners = model.face_rest[(k - edge_pairs(model)) / model.static_vertex.shape[0]]
-            for c in range(3):
-                moved = world_point(dq, vec3(corners[0, c], corners[1, c], corners[2, c]))
-                most = wp.max(most, wp.length(moved))
-        return most
-
-    @wp.func
-    def advance_bound(model: Model, scratch: Scratch, env: int, p: int, b: int):
-        """Conservative advancement along q_start + α dq for an edge or face pair: its
+    def advance_bound(model: Model, scratch: Scratch, env: int, p: int, body: int,
+                      other: int):
+        """Conservative advancement along q_start + α dq for an edge, face or body pair: its
         distance changes at most ``reach`` per unit α, so from a distance d at α it keeps
         η d₀ up to α + (d − η d₀)/reach; repeated until the gap is within 2 η d₀ (the first
         time it would close), α = 1, or ``ADVANCE_STEPS`` steps."""
-        d, n, rest, radius = pair_gap(model, scratch.q_start[env, b], p)
-        rate = reach(model, scratch.dq[env, b], p)
+        q0 = scratch.q_start[env, body]
+        dq = scratch.dq[env, body]
+        q0_o = other_state(scratch.q_start, env, body, other)
+        dq_o = other_state(scratch.dq, env, body, other)
+        d, n, rest, radius, rest_o, radius_o = pair_gap(model, q0, q0_o, p)
+        rate = reach(model, dq, dq_o, p)
         alpha = one
         if d <= zero:
             alpha = zero
@@ -732,8 +623,8 @@ def build(t) -> SimpleNamespace:
             for k in range(ADVANCE_STEPS):
                 alpha = wp.min(alpha + (d - floor) / rate, one)
                 if alpha < one:
-                    d, n, rest, radius = pair_gap(
-                        model, scratch.q_start[env, b] + alpha * scratch.dq[env, b], p)
+                    d, n, rest, radius, rest_o, radius_o = pair_gap(
+                        model, q0 + alpha * dq, q0_o + alpha * dq_o, p)
                     if d <= two * floor:
                         break
                 else:
@@ -745,22 +636,22 @@ def build(t) -> SimpleNamespace:
         """The largest α ≤ 1 at which every pair keeps at least η of its gap along
         q_start + α dq: a point moves on a straight line, its distance to a half-space is
         linear in α and to a convex shape convex, so the tangent at α = 0 is a lower bound
-        (exact for half-spaces, conservative for shapes); an edge's or face's distance is
-        neither, and advances conservatively (``advance_bound``); the pairs not listed stay
-        beyond d̂ (``cover``)."""
+        (exact for half-spaces, conservative for shapes); an edge's or face's distance, or
+        that of two bodies, is neither, and advances conservatively (``advance_bound``); the
+        pairs not listed stay beyond d̂ (``cover``)."""
         cover(model, scratch.q_start, scratch, env, 1)
         alpha = one
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             if pair_on(model, p):
-                b = pair_body(model, p)
+                body, other = pair_bodies(model, p)
                 if p < point_pairs(model):
-                    d, n, rest, radius = pair_gap(model, scratch.q_start[env, b], p)
-                    rate = wp.dot(jacobian_transpose(rest, n), scratch.dq[env, b])
+                    d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_start, env, p)
+                    rate = wp.dot(jacobian_transpose(rest, n), scratch.dq[env, body])
                     if rate < zero:
                         alpha = wp.min(alpha, keep * d / (-rate))
                 else:
-                    alpha = wp.min(alpha, advance_bound(model, scratch, env, p, b))
+                    alpha = wp.min(alpha, advance_bound(model, scratch, env, p, body, other))
         return alpha
 
     @wp.func(inline=INLINE)
@@ -768,14 +659,17 @@ def build(t) -> SimpleNamespace:
                  every_point: int):
         """(smallest distance [m] of a pair that may touch, +∞ without any; pairs closer than
         d̂) at q, over the listed pairs (the others are beyond d̂), or with ``every_point``
-        over every point pair and the listed edge and face pairs (the statistics)."""
+        over every point pair with a static side and the other listed pairs (the
+        statistics)."""
         nearest = infinity
         active = int(0)
         start = int(0)
         if every_point != 0:
+            things = statics(model)
             for p in range(point_pairs(model)):
                 if model.pair_on[p] != 0:
-                    d, n, rest, radius = pair_gap(model, q[env, pair_body(model, p)], p)
+                    i = p / things
+                    d, n = distance(model, q[env, model.point_body[i]], i, p - i * things)
                     nearest = wp.min(nearest, d)
                     if d < model.contact_d_hat:
                         active += 1
@@ -784,14 +678,13 @@ def build(t) -> SimpleNamespace:
                 start += 1
         for k in range(start, listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            d, n, rest, radius = pair_gap(model, q[env, pair_body(model, p)], p)
+            d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
             nearest = wp.min(nearest, d)
             if d < model.contact_d_hat:
                 active += 1
         return nearest, active
 
-    return SimpleNamespace(contact_distance=distance, barrier=barrier, cover=cover,
-                           gather_near=gather_near,
+    return SimpleNamespace(barrier=barrier, cover=cover, gather_near=gather_near,
                            lag_friction=lag_friction, friction_energy=friction_energy,
                            add_friction=add_friction, damping_energy=damping_energy,
                            add_damping=add_damping,

@@ -18,9 +18,9 @@ import numpy as np
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
 from affine_joint_sim.physics.mesh_points import mesh_points
-from affine_joint_sim.physics.pair_geometry import pair_distances, pair_gap
-from affine_joint_sim.physics.primitives import moving_surface, static_surfaces
-from affine_joint_sim.physics.static_shapes import static_shapes
+from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap
+from affine_joint_sim.physics.primitives import Surface, moving_surface, static_surfaces
+from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_separation, static_shapes
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
@@ -111,30 +111,6 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
     settings = scene.contact or Contact()
     bodies, rests, radii = [], [], []
     shapes, owners, shape_names = static_shapes(scene.bodies if on else [], q0, _geometries)
-    moving = _Moving()
-    for b, body in enumerate(scene.bodies if on else []):
-        if body.collision is None or body.fixed:
-            continue
-        for k, geometry in enumerate(_geometries(body)):
-            where = f'body {body.name!r} (bodies[{b}].collision' + (
-                ')' if body.collision == 'shape' else f'[{k}])')
-            for rest, radius in _points(geometry, where):
-                bodies.append(b)
-                rests.append(rest)
-                radii.append(radius)
-            if len(owners):             # edges and faces touch static shapes only
-                moving.add(b, moving_surface(geometry, where))
-    if on and not scene.solver.line_search:
-        warnings.warn('solver.line_search is false, but a scene with contact always searches '
-                      '(a step must never end inside the ground)', SimulationWarning,
-                      stacklevel=3)
-    normals, offsets, names = _half_spaces(scene) if on else (np.zeros((0, 3)), np.zeros(0), [])
-    fixed = _Fixed(*static_surfaces(shapes, owners))
-    body_mu = [settings.friction if body.friction is None else body.friction
-               for body in scene.bodies]
-    static_mu = [settings.friction if half.friction is None else half.friction
-                 for half in (scene.ground or [])] if on else []
-    static_mu += [body_mu[f] for f in owners]
     group, jointed = scene.articulations()
     excluded = {(scene.body_index(a), scene.body_index(b)) for a, b in settings.exclude}
     excluded |= {(b, a) for a, b in excluded}
@@ -148,9 +124,43 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
             return 1
         return int(settings.self_collision and (b, f) not in jointed)
 
+    solids = [b for b, body in enumerate(scene.bodies if on else [])
+              if body.collision is not None and not body.fixed]
+    touch = [(a, b) for a in solids for b in solids if a < b and may_touch(a, b)]
+    moving = _Moving()
+    for b in solids:
+        body = scene.bodies[b]
+        for k, geometry in enumerate(_geometries(body)):
+            where = f'body {body.name!r} (bodies[{b}].collision' + (
+                ')' if body.collision == 'shape' else f'[{k}])')
+            for rest, radius in _points(geometry, where):
+                bodies.append(b)
+                rests.append(rest)
+                radii.append(radius)
+            if len(owners) or touch:    # edges and faces: static shapes, other bodies
+                moving.add(b, moving_surface(geometry, where), static=True)
+            if touch and geometry.kind == 'sphere':     # its centre, for other bodies only
+                moving.add(b, Surface([geometry.origin.xyz], [(0, 0)],
+                                      radius=geometry.sphere.radius), static=False)
+    if on and not scene.solver.line_search:
+        warnings.warn('solver.line_search is false, but a scene with contact always searches '
+                      '(a step must never end inside the ground)', SimulationWarning,
+                      stacklevel=3)
+    normals, offsets, names = _half_spaces(scene) if on else (np.zeros((0, 3)), np.zeros(0), [])
+    fixed = _Fixed(*static_surfaces(shapes, owners))
+    body_mu = [settings.friction if body.friction is None else body.friction
+               for body in scene.bodies]
+    static_mu = [settings.friction if half.friction is None else half.friction
+                 for half in (scene.ground or [])] if on else []
+    static_mu += [body_mu[f] for f in owners]
     families = [(bodies, [None] * len(offsets) + list(owners)),
                 (moving.edge_body, fixed.edge_owner), (moving.face_body, fixed.vertex_owner)]
+    solid = [[1] * len(bodies), moving.edge_static, [1] * len(moving.face_body)]
     mu = [static_mu] + [[body_mu[f] for f in owners_] for _, owners_ in families[1:]]
+    n = len(scene.bodies)
+    slot = np.full((n, n), -1, dtype=np.int32)
+    for j, (a, b) in enumerate(touch):
+        slot[a, b] = slot[b, a] = j
     arrays = dict(has_contact=int(on), contact_d_hat=settings.d_hat,
                   contact_kappa=settings.kappa, contact_eps_velocity=settings.eps_velocity,
                   contact_damping=settings.damping,
@@ -158,15 +168,22 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
                   pair_friction=np.array([combined_friction(body_mu[b], m)
                                           for (moving_, _), mus in zip(families, mu)
                                           for b in moving_ for m in mus], dtype=np.float64),
-                  pair_on=np.array([may_touch(b, f) for moving_, owners_ in families
-                                    for b in moving_ for f in owners_], dtype=np.int32),
+                  pair_on=np.array([may_touch(b, f) * on_ for (moving_, owners_), flags in
+                                    zip(families, solid)
+                                    for b, on_ in zip(moving_, flags) for f in owners_],
+                                   dtype=np.int32),
                   point_body=np.array(bodies, dtype=np.int32),
                   point_rest=np.array(rests, dtype=np.float64).reshape(-1, 3),
                   point_radius=np.array(radii, dtype=np.float64),
                   plane_normal=normals, plane_offset=offsets, **shapes,
-                  **moving.arrays(len(scene.bodies), zip(bodies, rests)),
-                  **fixed.arrays())
+                  **moving.arrays(n, zip(bodies, rests, radii)), **fixed.arrays(),
+                  body_first_point=np.searchsorted(bodies, np.arange(n + 1)).astype(np.int32),
+                  touch_a=np.array([a for a, _ in touch], dtype=np.int32),
+                  touch_b=np.array([b for _, b in touch], dtype=np.int32), touch_slot=slot,
+                  body_friction=np.array([[combined_friction(ma, mb) for mb in body_mu]
+                                          for ma in body_mu], dtype=np.float64).reshape(n, n))
     names += shape_names + [scene.bodies[f].name for f in fixed.edge_owner + fixed.vertex_owner]
+    _refuse_overlap(scene, q0, arrays)
     _refuse_touching(scene, q0, arrays, names)
     return arrays, names
 
@@ -175,29 +192,38 @@ class _Moving:
     """The moving bodies' edges and faces, collected geometry by geometry."""
 
     def __init__(self):
-        self.edge_body, self.edges, self.edge_radius = [], [], []
+        self.edge_body, self.edges, self.edge_radius, self.edge_static = [], [], [], []
         self.face_body, self.faces = [], []
 
-    def add(self, body: int, surface) -> None:
+    def add(self, body: int, surface, static: bool) -> None:
+        """A geometry's edges and faces; ``static``: its edges touch static edges too (a
+        sphere's centre, a zero-length edge, touches other bodies' edges only)."""
         for a, b in surface.edges:
             self.edge_body.append(body)
             self.edges.append((surface.vertices[a], surface.vertices[b]))
             self.edge_radius.append(surface.radius)
+            self.edge_static.append(int(static))
         for face in surface.faces:
             self.face_body.append(body)
             self.faces.append(surface.vertices[face].T)        # the corners as columns
 
     def arrays(self, bodies: int, points) -> dict:
-        """The fields, with body_reach over the edges', faces' and ``points``' (body, x̄)
-        rest positions."""
+        """The fields, with body_reach and body_bound over the edges', faces' and ``points``'
+        (body, x̄, radius) rest positions."""
         ends = np.array(self.edges, dtype=np.float64).reshape(-1, 2, 3)
-        reach = np.zeros(bodies)
-        corners = list(points) + list(zip(self.edge_body, ends[:, 0]))
-        corners += list(zip(self.edge_body, ends[:, 1]))
-        corners += [(b, corner) for b, face in zip(self.face_body, self.faces) for corner in face.T]
-        for b, corner in corners:
+        reach, bound = np.zeros(bodies), np.zeros(bodies)
+        corners = list(points) + [(b, end, r) for b, pair, r in zip(
+            self.edge_body, ends, self.edge_radius) for end in pair]
+        corners += [(b, corner, 0.0) for b, face in zip(self.face_body, self.faces)
+                    for corner in face.T]
+        for b, corner, radius in corners:
             reach[b] = max(reach[b], pm.norm(corner))
-        return dict(body_reach=reach, edge_body=np.array(self.edge_body, dtype=np.int32),
+            bound[b] = max(bound[b], pm.norm(corner) + radius)
+        first = np.arange(bodies + 1)
+        return dict(body_reach=reach, body_bound=bound,
+                    edge_body=np.array(self.edge_body, dtype=np.int32),
+                    body_first_edge=np.searchsorted(self.edge_body, first).astype(np.int32),
+                    body_first_face=np.searchsorted(self.face_body, first).astype(np.int32),
                     edge_a=ends[:, 0], edge_b=ends[:, 1],
                     edge_radius=np.array(self.edge_radius, dtype=np.float64),
                     face_body=np.array(self.face_body, dtype=np.int32),
@@ -229,14 +255,45 @@ class _Fixed:
 
 
 def _refuse_touching(scene, q0, arrays, names) -> None:
-    """SceneError naming the body and the half-space, shape or fixed body if a pair that may
-    touch starts at distance ≤ 0."""
-    if not len(arrays['pair_on']):
+    """SceneError naming the body and the half-space, shape, fixed body or other body if a
+    pair that may touch starts at distance ≤ 0."""
+    gaps = [pair_gap(arrays, q0, int(p)) for p in near_pairs(arrays, q0, 0.0)]
+    inside = [gap for gap in gaps if gap.distance <= 0.0]
+    if not inside:
         return
-    distances = pair_distances(q0, arrays)
-    p = int(np.argmin(distances))
-    if distances[p] <= 0.0:
-        gap = pair_gap(arrays, q0, p)
-        raise SceneError(f'body {scene.bodies[gap.body].name!r} starts {-gap.distance:.6g} m '
-                         f'inside {names[gap.static]} (distance {gap.distance:.6g} m): a scene '
-                         'with contact must start with nothing touching')
+    gap = min(inside, key=lambda g: g.distance)
+    other = names[gap.static] if gap.other is None else f'body {scene.bodies[gap.other].name!r}'
+    raise SceneError(f'body {scene.bodies[gap.body].name!r} starts {-gap.distance:.6g} m '
+                     f'inside {other} (distance {gap.distance:.6g} m): a scene '
+                     'with contact must start with nothing touching')
+
+
+def _refuse_overlap(scene, q0, arrays) -> None:
+    """SceneError naming both bodies and the deepest overlap if a contact point of a body
+    starts inside (or on) the convex geometry of another it may touch: their distances,
+    unsigned between two moving bodies, cannot tell a point that starts inside from one
+    outside."""
+    if not len(arrays['touch_a']):
+        return
+    shapes, owners, _ = static_shapes(scene.bodies, q0, _geometries, moving=True)
+    rests, radii = arrays['point_rest'], arrays['point_radius']
+    deepest = None
+    for s, owner in enumerate(owners):
+        kind, rotation, centre, size = (shapes[key][s] for key in (
+            'shape_kind', 'shape_rotation', 'shape_center', 'shape_size'))
+        if kind == SHAPE_KINDS['triangle']:
+            continue
+        for i, body in enumerate(arrays['point_body']):
+            if arrays['touch_slot'][body, owner] < 0:
+                continue
+            x = q0[body, :3] + pm.matmul(q0[body, 3:].reshape(3, 3), rests[i])
+            if pm.norm(x - centre) > pm.norm(size) + size[0] + radii[i]:
+                continue                # beyond every shape's bounding sphere
+            depth = radii[i] - shape_separation(kind, rotation, centre, size, x)[0]
+            if depth >= 0.0 and (deepest is None or depth > deepest[0]):
+                deepest = depth, body, owner
+    if deepest is not None:
+        depth, body, owner = deepest
+        raise SceneError(f'body {scene.bodies[body].name!r} starts {depth:.6g} m inside body '
+                         f'{scene.bodies[owner].name!r}: a scene with contact must start with '
+                         'nothing touching')

@@ -17,8 +17,7 @@ import math
 import numpy as np
 
 from affine_joint_sim.physics.contact_model import tangent
-from affine_joint_sim.physics.pair_geometry import pair_gap, pair_weight
-from affine_joint_sim.physics.static_shapes import SHAPE_KINDS
+from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, pair_weight
 
 __all__ = ['barrier_energy', 'barrier_force', 'active_contacts']
 
@@ -46,10 +45,10 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
     step having started at ``q_n`` with lagged normal forces ``friction_normal`` (pairs,)
     [N·s²] and damping ``normal_damping`` (pairs,) [kg].
 
-    Each is a dict: ``body`` (the moving body's name), ``other`` (the half-space's or fixed
-    body's name), ``point`` (the nearest point of the other's surface [m, world]),
-    ``normal`` (unit, from the other towards the body), ``distance`` [m], ``normal_force``
-    [N] and ``friction_force`` (3-vector [N, world], on the body).
+    Each is a dict: ``body`` (the moving body's name), ``other`` (the half-space's, fixed
+    body's or other moving body's name), ``point`` (the nearest point of the other's surface
+    [m, world]), ``normal`` (unit, from the other towards the body), ``distance`` [m],
+    ``normal_force`` [N] and ``friction_force`` (3-vector [N, world], on the body).
     """
     model = vars(host)
     dt2 = float(host.dt) ** 2
@@ -68,86 +67,27 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
         if normal_damping[pair] > 0.0:
             d_n = pair_gap(model, q_n, pair).distance
             push += normal_damping[pair] * max(d_n - d, 0.0) / dt2
-        out.append({'body': body_names[gap.body], 'other': static_names[gap.static],
+        other = static_names[gap.static] if gap.other is None else body_names[gap.other]
+        out.append({'body': body_names[gap.body], 'other': other,
                     'point': gap.point, 'normal': np.asarray(gap.normal),
                     'distance': float(d), 'normal_force': push, 'friction_force': force})
     return out
 
 
 def _candidates(host, q, friction_normal, normal_damping) -> list[int]:
-    """Pairs that may touch and may be closer than d̂, found for every pair of a family at
-    once by a lower bound of its distance (the exact distance to a half-space; between the
-    bounding spheres of a point and a shape, of two segments, of a triangle and a vertex),
-    and those with forces lagged at the step's start (friction and damping act on them even
-    once they are beyond d̂). The pairs are then evaluated one by one."""
-    near = np.concatenate([_near_points(host, q), _near_edges(host, q), _near_faces(host, q)])
-    near &= host.pair_on != 0
-    near |= (friction_normal > 0.0) | (normal_damping > 0.0)   # lagged: they acted on it
-    return [int(p) for p in np.flatnonzero(near)]
-
-
-def _near_points(host, q) -> np.ndarray:
-    body, radius = host.point_body, host.point_radius
-    x = q[body, :3] + np.einsum('nij,nj->ni', q[body, 3:].reshape(-1, 3, 3), host.point_rest)
-    planes, shapes = len(host.plane_offset), len(host.shape_kind)
-    near = np.zeros((len(body), planes + shapes), dtype=bool)
-    if planes:
-        near[:, :planes] = (x @ host.plane_normal.T - host.plane_offset - radius[:, None]
-                            < host.contact_d_hat)
-    for s in range(shapes):
-        near[:, planes + s] = (np.linalg.norm(x - host.shape_center[s], axis=1)
-                               - _bounding_radius(host.shape_kind[s], host.shape_size[s])
-                               - radius < host.contact_d_hat)
-    return near.reshape(-1)
-
-
-def _ball(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(centres, radii) of spheres holding each row's points (k, m, 3)."""
-    centre = points.mean(axis=1)
-    return centre, np.linalg.norm(points - centre[:, None], axis=2).max(axis=1, initial=0.0)
-
-
-def _moved(q, bodies, rests) -> np.ndarray:
-    """World points (k, m, 3) of rest points ``rests`` (k, m, 3) on ``bodies`` (k,)."""
-    return q[bodies, None, :3] + np.einsum('kij,kmj->kmi', q[bodies, 3:].reshape(-1, 3, 3),
-                                           rests)
-
-
-def _near_edges(host, q) -> np.ndarray:
-    ends = _moved(q, host.edge_body, np.stack([host.edge_a, host.edge_b], axis=1))
-    centre, reach = _ball(ends)
-    other, other_reach = _ball(np.stack([host.static_edge_a, host.static_edge_b], axis=1))
-    gap = (np.linalg.norm(centre[:, None] - other[None], axis=2) - reach[:, None]
-           - other_reach[None] - host.edge_radius[:, None] - host.static_edge_radius[None])
-    return (gap < host.contact_d_hat).reshape(-1)
-
-
-def _near_faces(host, q) -> np.ndarray:
-    corners = _moved(q, host.face_body, np.transpose(host.face_rest, (0, 2, 1)))
-    centre, reach = _ball(corners)
-    gap = (np.linalg.norm(centre[:, None] - host.static_vertex[None], axis=2)
-           - reach[:, None] - host.static_vertex_radius[None])
-    return (gap < host.contact_d_hat).reshape(-1)
-
-
-def _bounding_radius(kind: int, size) -> float:
-    """The radius [m] of a sphere about a shape's centre that holds it."""
-    if kind == SHAPE_KINDS['box']:
-        return float(np.linalg.norm(size))
-    if kind == SHAPE_KINDS['sphere']:
-        return float(size[0])
-    if kind == SHAPE_KINDS['capsule']:
-        return float(size[0] + size[1])
-    return float(math.hypot(size[0], size[1]))
+    """Pairs that may touch and may be closer than d̂ (``pair_geometry.near_pairs``), and
+    those with forces lagged at the step's start (friction and damping act on them even once
+    they are beyond d̂). The pairs are then evaluated one by one."""
+    lagged = np.flatnonzero((friction_normal > 0.0) | (normal_damping > 0.0))
+    return [int(p) for p in np.union1d(near_pairs(vars(host), q, host.contact_d_hat), lagged)]
 
 
 def _friction(host, q, q_n, pair: int, lam: float) -> np.ndarray:
     """The friction force [N, world] of ``pair``: −μ λ (f1(y)/y) u, u the slip since q_n of
     the material point that touches, in the basis lagged at q_n (the kernel's ``slip``)."""
     start = pair_gap(vars(host), q_n, pair)
-    b, rest, n = start.body, start.rest, start.normal
-    if start.radius > 0.0:              # the material point that touches, as the kernel
-        rest = rest - start.radius * np.linalg.solve(q_n[b, 3:].reshape(3, 3), n)
+    b, n = start.body, start.normal
+    rest = _touching(q_n[b], start.rest, start.radius, n)
     things = len(host.plane_offset) + len(host.shape_kind)
     g = pair - (pair // things) * things if things else 0
     point_pair = pair < len(host.point_body) * things
@@ -155,8 +95,22 @@ def _friction(host, q, q_n, pair: int, lam: float) -> np.ndarray:
     t2 = np.array([n[1] * t1[2] - n[2] * t1[1], n[2] * t1[0] - n[0] * t1[2],
                    n[0] * t1[1] - n[1] * t1[0]])          # n × t₁ (np.cross costs 60 µs)
     moved = _world(q[b], rest) - _world(q_n[b], rest)
+    mu = host.body_friction[b, start.other] if start.other is not None else \
+        host.pair_friction[pair]
+    if start.other is not None:         # the slip relative to the other body's point
+        c = start.other
+        rest = _touching(q_n[c], start.other_rest, start.other_radius, -n)
+        moved = moved - (_world(q[c], rest) - _world(q_n[c], rest))
     u1, u2 = float(t1 @ moved), float(t2 @ moved)
     y = math.hypot(u1, u2)
     eps = host.contact_eps_velocity * host.dt
     f1_over_y = 1.0 / y if y >= eps else (2.0 * eps - y) / (eps * eps)
-    return -host.pair_friction[pair] * lam * f1_over_y * (u1 * t1 + u2 * t2)
+    return -mu * lam * f1_over_y * (u1 * t1 + u2 * t2)
+
+
+def _touching(q_body, rest, radius: float, normal) -> np.ndarray:
+    """The rest position of the material point that touches along ``normal`` (towards the
+    body): x̄ − r A⁻¹ n, as the kernel's ``touch_rest``."""
+    if radius > 0.0:
+        rest = rest - radius * np.linalg.solve(q_body[3:].reshape(3, 3), normal)
+    return rest

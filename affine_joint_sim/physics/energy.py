@@ -10,7 +10,7 @@ energy b(d) of every pair closer than d̂ this is the energy that implicit BDF s
 
 import numpy as np
 
-from affine_joint_sim.physics.pair_geometry import pair_distances, pair_weight
+from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, pair_weight
 from affine_joint_sim.physics.contact_report import barrier_energy
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.model import HostModel, residual_jacobians
@@ -63,10 +63,11 @@ def _contact_energy(model: HostModel, q: np.ndarray) -> np.ndarray:
     states = q.reshape(-1, *q.shape[-2:])
     out = np.zeros(len(states))
     for e, state in enumerate(states):
-        distances = pair_distances(state, vars(model))
+        near = near_pairs(vars(model), state, model.contact_d_hat)
+        distances = [pair_gap(vars(model), state, int(p)).distance for p in near]
         out[e] = sum(pair_weight(vars(model), state, p)
                      * barrier_energy(d, model.contact_d_hat, model.contact_kappa)
-                     for p, d in enumerate(distances) if 0.0 < d < model.contact_d_hat)
+                     for p, d in zip(near, distances) if 0.0 < d < model.contact_d_hat)
     return out.reshape(q.shape[:-2])
 
 

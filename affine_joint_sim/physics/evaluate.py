@@ -24,13 +24,13 @@ ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START, MOVED, STEP_BOUND = range(6)
 def _probe_kernel(t):
     """One kernel that launches the stage ``which`` (ENERGY, ...) for the types namespace ``t``
     (built once: one module to compile per precision, not one per stage)."""
-    if t.name in _PROBES:
-        return _PROBES[t.name]
+    key = (t.name, t.bodies)
+    if key in _PROBES:
+        return _PROBES[key]
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     vec12, scalar = t.vec12, t.scalar
-    incremental_potential, assemble, solve_tree = (t.incremental_potential, t.assemble,
-                                                   t.solve_tree)
+    incremental_potential, assemble, solve = t.incremental_potential, t.assemble, t.solve
     joint_raw_coordinate, joint_coordinate_gradients = (t.joint_raw_coordinate,
                                                         t.joint_coordinate_gradients)
     warm_start, moved, full_step, step_bound = t.warm_start, t.moved, t.full_step, t.step_bound
@@ -53,7 +53,8 @@ def _probe_kernel(t):
             energy_out[0] = incremental_potential(model, state, control, q, scratch, 0, one, 0)
         elif which == NEWTON_SYSTEM:
             assemble(model, state, control, q, scratch, 0, one, 0, 1)
-            solve_tree(model, scratch, 0)
+            iterations, stalled = solve(model, scratch, 0)
+            energy_out[0] = scalar(iterations)
         elif which == COORDINATES:
             for k in range(model.joint_parent.shape[0]):
                 coordinate_out[k] = joint_raw_coordinate(model, q, 0, k)
@@ -73,7 +74,7 @@ def _probe_kernel(t):
                 q_out[b] = moved(q[0, b], scratch.dq[0, b], one)
             energy_out[0] = full_step(model, scratch, 0)
 
-    _PROBES[t.name] = probe
+    _PROBES[key] = probe
     return probe
 
 
@@ -82,7 +83,7 @@ class Stages:
 
     def __init__(self, scene, device: str = 'cpu'):
         self.host = build_model(scene)
-        self.t = step_kernels(scalar_of(scene.solver.precision))
+        self.t = step_kernels(scalar_of(scene.solver.precision), len(self.host.touch_a) > 0)
         self.device = device
         nb = self.host.body_count
         sizes = array_sizes(self.host, 1)
@@ -127,10 +128,12 @@ class Stages:
         return float(self._outputs[0].numpy()[0])
 
     def newton_system(self, q, q_tilde):
-        """(∇E, dense ∇²E as assembled (PSD-projected), tree-solve direction dq) over the
-        free DOFs at q."""
+        """(∇E, dense ∇²E as assembled (PSD-projected), the Newton direction dq of the tree
+        solve or, where contact couples bodies, of the coupled solve) over the free DOFs at
+        q."""
         self._load(q, q_tilde)
         self._launch(NEWTON_SYSTEM)
+        self.inner_iterations = int(self._outputs[0].numpy()[0])   # of the coupled solve
         rhs, blocks = self.scratch.rhs.numpy()[0], self.scratch.hessian.numpy()[0]
         offdiag = self.host.elim_offdiag
         if self.host.state_coupling:     # the blocks a state term touched this iteration
@@ -146,6 +149,12 @@ class Stages:
                 j, off = index[p], offdiag[b]
                 hessian[12 * i:12 * i + 12, 12 * j:12 * j + 12] = off
                 hessian[12 * j:12 * j + 12, 12 * i:12 * i + 12] = off.T
+        used = self.scratch.block_used.numpy()[0]
+        for j, block in enumerate(self.scratch.contact_block.numpy()[0]):
+            if used[j]:
+                a, c = index[self.host.touch_a[j]], index[self.host.touch_b[j]]
+                hessian[12 * a:12 * a + 12, 12 * c:12 * c + 12] = block
+                hessian[12 * c:12 * c + 12, 12 * a:12 * a + 12] = block.T
         gradient = -np.concatenate([rhs[b] for b in self.free])
         return gradient, hessian, np.concatenate([dq[b] for b in self.free])
 

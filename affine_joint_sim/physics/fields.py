@@ -7,10 +7,12 @@ fixed ones included), ``free`` (free bodies), ``joint``, ``env`` (environments),
 statistics columns, ``problem`` (PROBLEM_COLUMNS), ``point`` (contact points: collision
 vertices and sphere centres), ``plane`` (static half-spaces), ``shape`` (fixed bodies'
 collision geometries: static boxes, spheres, capsules, cylinders, triangles), ``edge`` and
-``face`` (moving bodies' edges and triangles), ``static_edge`` and ``static_vertex`` (the
-static shapes' edges and corners), ``near`` (twice the pairs) and ``pair`` (point ×
-static thing: the planes, then the shapes; then edge × static edge; then face × static
-vertex);
+``face`` (moving bodies' edges and triangles, each body's consecutive), ``static_edge`` and
+``static_vertex`` (the static shapes' edges and corners), ``touch`` (pairs of free bodies that
+may touch each other), ``body_end`` (one more than ``body``), ``static_pair`` (point × static
+thing: the planes, then the shapes; then edge × static edge; then face × static vertex),
+``pair`` (the static pairs, then point × face of another body, then edge × edge of two bodies)
+and ``near`` (twice the pairs);
 ``()`` is a plain struct member, not an array. Frames: world, SI units.
 """
 
@@ -21,7 +23,7 @@ import numpy as np
 import warp as wp
 
 __all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'CONTACT_STATS',
-           'PROBLEM_NAMES',
+           'COUPLED_STATS', 'PROBLEM_NAMES',
            'PROBLEM_COLUMNS', 'structs',
            'allocate', 'device_model', 'fields_of', 'env_bytes', 'array_sizes']
 
@@ -45,10 +47,12 @@ def _fields(group, rows):
 
 STAT_INT_NAMES = ('newton_iterations', 'line_search_halvings', 'converged',
                   'line_search_failures', 'angle_aliased', 'torque_dropped', 'non_finite',
-                  'step_rejected', 'contacts')
+                  'step_rejected', 'contacts', 'inner_iterations', 'inner_stalls')
 STAT_FLOAT_NAMES = ('residual', 'joint_gap', 'rotation_strain', 'min_distance')
 # statistics of a scene with contact only (the Stepper leaves them out otherwise)
 CONTACT_STATS = ('contacts', 'min_distance')
+# statistics of a scene whose free bodies may touch each other only (the coupled solve)
+COUPLED_STATS = ('inner_iterations', 'inner_stalls')
 # The kinds of trouble a step reports (Stepper warns once per kind): state.problem_counts holds
 # per step the number of environments with each, after column 0, the number with any.
 PROBLEM_NAMES = ('not_converged', 'non_finite', 'angle_aliased', 'torque_dropped',
@@ -130,6 +134,8 @@ FIELDS = _fields('model', [
      'cylinder: (ρ, half length along its z, 0)'),
     ('body_reach', 'scalar', B, 'm', 'the farthest contact point or corner of an edge or face of '
      'a free body from its centre of mass, rest (0: none); bounds how far they move'),
+    ('body_bound', 'scalar', B, 'm', 'the radius of a sphere about a free body\'s centre of '
+     'mass holding its collision geometry, rest (0: none)'),
     ('edge_body', 'int32', ('edge',), '-', 'free body of each moving edge'),
     ('edge_a', 'vec3', ('edge',), 'm', 'its first end, rest position'),
     ('edge_b', 'vec3', ('edge',), 'm', 'its second end, rest position'),
@@ -141,12 +147,23 @@ FIELDS = _fields('model', [
     ('static_edge_radius', 'scalar', ('static_edge',), 'm', 'its radius'),
     ('static_vertex', 'vec3', ('static_vertex',), 'm', 'each static vertex, world'),
     ('static_vertex_radius', 'scalar', ('static_vertex',), 'm', 'its radius'),
-    ('pair_friction', 'scalar', ('pair',), '-', 'Coulomb μ of each pair: point i against static '
-     'thing g (the half-spaces, then the shapes) at i·(planes + shapes) + g, then moving edge '
-     'e against static edge s, then moving face f against static vertex v, likewise'),
-    ('pair_on', 'int32', ('pair',), '-', '1: the pair may touch (0: contact.exclude names it, or '
-     'a fixed body of the moving body\'s own articulation without self_collision, or one '
-     'jointed to it)'),
+    ('pair_friction', 'scalar', ('static_pair',), '-', 'Coulomb μ of each static pair: point i '
+     'against static thing g (the half-spaces, then the shapes) at i·(planes + shapes) + g, '
+     'then moving edge e against static edge s, then moving face f against static vertex v, '
+     'likewise'),
+    ('pair_on', 'int32', ('static_pair',), '-', '1: the static pair may touch (0: '
+     'contact.exclude names it, or a fixed body of the moving body\'s own articulation '
+     'without self_collision, or one jointed to it, or the edge is a sphere\'s centre)'),
+    ('body_first_point', 'int32', ('body_end',), '-', 'index of each body\'s first contact '
+     'point (its points end where the next body\'s start)'),
+    ('body_first_edge', 'int32', ('body_end',), '-', 'likewise of its moving edges'),
+    ('body_first_face', 'int32', ('body_end',), '-', 'likewise of its moving faces'),
+    ('touch_a', 'int32', ('touch',), '-', 'first body of each pair of free bodies that may '
+     'touch each other (touch_a < touch_b)'),
+    ('touch_b', 'int32', ('touch',), '-', 'its second body'),
+    ('touch_slot', 'int32', ('body', 'body'), '-', 'the touch pair of bodies a and b (either '
+     'order), -1 if they never touch'),
+    ('body_friction', 'scalar', ('body', 'body'), '-', 'Coulomb μ between two bodies'),
     ('contact_eps_velocity', 'scalar', (), 'm/s', 'slip speed ε_v below which friction is '
      'viscous'),
     ('contact_damping', 'scalar', (), '-', 'ζ: contact damping as a ratio to critical'),
@@ -200,6 +217,22 @@ FIELDS = _fields('model', [
      'those within d̂ + body_margin at q_n (the others stay beyond d̂); room for two lists, '
      'the last step\'s and the next'),
     ('near_count', 'int32', E, '-', 'how many near_pairs'),
+    ('pair_mark', 'int32', ('env', 'pair'), '-', '1 while a pair is in the fresh near list '
+     '(zero between steps)'),
+    ('point_world', 'vec3', ('env', 'point'), 'm', 'each contact point at q_n, for the broad '
+     'phase of pairs of bodies'),
+    ('edge_centre', 'vec3', ('env', 'edge'), 'm', 'each moving edge\'s midpoint at q_n'),
+    ('edge_size', 'scalar', ('env', 'edge'), 'm', 'its half length plus radius'),
+    ('face_centre', 'vec3', ('env', 'face'), 'm', 'each moving face\'s centroid at q_n'),
+    ('face_size', 'scalar', ('env', 'face'), 'm', 'its farthest corner from the centroid'),
+    ('contact_block', 'mat12', ('env', 'touch'), 'kg', 'the Hessian block H[touch_a, touch_b] '
+     'of the contact between two bodies this iterate'),
+    ('block_used', 'int32', ('env', 'touch'), '-', '1 if contact_block holds a block this '
+     'iterate'),
+    ('cg_residual', 'vec12', EB, 'J', 'residual of the coupled solve (conjugate gradients)'),
+    ('cg_preconditioned', 'vec12', EB, 'm, -', 'the tree solve of that residual'),
+    ('cg_direction', 'vec12', EB, 'm, -', 'conjugate search direction'),
+    ('cg_product', 'vec12', EB, 'J', 'H times the search direction'),
     ('body_margin', 'scalar', EB, 'm', 'how far a body\'s contact points, edges and faces may '
      'move this step before near_pairs is gathered again'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
@@ -270,10 +303,12 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
             'free': int(np.sum(host.body_fixed == 0)),
             'joint': host.joint_count, 'point': len(host.point_body),
             'plane': len(host.plane_offset), 'shape': len(host.shape_kind),
-            'pair': len(host.pair_friction), 'edge': len(host.edge_body),
+            'static_pair': len(host.pair_friction), 'pair': host.pair_count,
+            'touch': len(host.touch_a), 'body_end': host.body_count + 1,
+            'edge': len(host.edge_body),
             'face': len(host.face_body), 'static_edge': len(host.static_edge_a),
             'static_vertex': len(host.static_vertex),
-            'near': 2 * len(host.pair_friction),
+            'near': 2 * host.pair_count,
             'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 

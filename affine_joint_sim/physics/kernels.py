@@ -1,40 +1,49 @@
 """The physics pipeline of one precision, composed stage by stage into the step kernel.
 
-``step_kernels(scalar)`` builds, once per scalar type (wp.float64 or wp.float32), the types
+``step_kernels(scalar)`` builds, once per scalar type (wp.float64 or wp.float32) and per
+kind of contact (whether moving bodies touch each other), the types
 and structs of ``fields``, then each stage's Warp functions in pipeline order: the portable
 sin, atan2 and log and the kernels' compile options, affine kinematics, orthogonality, tree
-solve, joints, joint terms, commands, contact, incremental potential, assembly, prediction,
-Newton, commit and the step kernel. Every stage function is an attribute of the returned
-namespace, so tests can launch a stage on its own (``physics.evaluate``).
+solve, joints, joint terms, commands, contact geometry, contact, the coupled solve,
+incremental potential, assembly, prediction, Newton, commit and the step kernel. Every stage
+function is an attribute of the returned namespace, so tests can launch a stage on its own
+(``physics.evaluate``).
 """
 
 from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics import (affine, assemble, commands, commit, contact, frames,
-                                      joint_terms, joints, kernel_math, newton, ortho,
-                                      potential, prediction, step, tree_solve)
+from affine_joint_sim.physics import (affine, assemble, commands, commit, contact,
+                                      contact_geometry, coupled_solve, frames, joint_terms,
+                                      joints, kernel_math, newton, ortho, potential, prediction,
+                                      step, tree_solve)
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.precision import types_for
 
 __all__ = ['step_kernels', 'scalar_of', 'frame_kernel']
 
-_STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands, contact,
-           potential, assemble, prediction, newton, commit, step)
+_STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands,
+           contact_geometry, contact, coupled_solve, potential, assemble, prediction, newton,
+           commit, step)
 _BUILT = {}
 _FRAMES = {}
 
 
-def step_kernels(scalar) -> SimpleNamespace:
-    """Types, structs, stage functions and the step kernel for ``scalar``."""
-    if scalar not in _BUILT:
+def step_kernels(scalar, bodies: bool = False) -> SimpleNamespace:
+    """Types, structs, stage functions and the step kernel for ``scalar``; with ``bodies``,
+    of the pipeline whose contact includes pairs of moving bodies (and the coupled solve):
+    a kernel module of its own, so a scene whose bodies never touch each other runs code
+    without any of it (``t.bodies``, a compile-time switch of the stages)."""
+    key = (scalar, bool(bodies))
+    if key not in _BUILT:
         t = types_for(scalar)
+        t.bodies = bool(bodies)
         t.structs = structs(t)
         for stage in _STAGES:
             vars(t).update(vars(stage.build(t)))
-        _BUILT[scalar] = t
-    return _BUILT[scalar]
+        _BUILT[key] = t
+    return _BUILT[key]
 
 
 def scalar_of(precision: str):

@@ -18,6 +18,7 @@ from affine_joint_sim.physics.joint_kinds import JOINT_KINDS, joint_kind
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import body_mass_properties
+from affine_joint_sim.physics.pair_geometry import pair_total
 from affine_joint_sim.physics.rigidity import body_rigidity
 from affine_joint_sim.rotations import rotation_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning
@@ -53,6 +54,11 @@ class HostModel:
     @property
     def joint_count(self) -> int:
         return len(self.joint_parent)
+
+    @property
+    def pair_count(self) -> int:
+        """Contact pairs numbered (physics.fields ``pair``)."""
+        return pair_total(vars(self))
 
 
 def jacobian(x_bar) -> np.ndarray:
@@ -124,6 +130,7 @@ def build_model(scene) -> HostModel:
     state_coupling = bool((state_terms | (moving & nonlinear)).any())
     contact, static_names = contact_arrays(scene, q0)
     active += ['contact'] * contact['has_contact']
+    active += ['body contact'] * bool(len(contact['touch_a']))
     values = dict(
         dt=scene.dt, gravity=gravity, has_gravity=int(np.any(gravity != 0.0)),
         integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,

@@ -13,9 +13,9 @@ increase up to the rounding of E, its own and that from the coordinates' (see
 the step bound that keeps every point clear of the static things, energies are +∞ on
 penetration, Newton starts from q_n where the prediction touches (or, with static shapes, is
 not reached from q_n on a collision-free straight path) or where E is lower at q_n (a
-resting body), converges only on a full step that
-is collision-free, and always searches; with static shapes the search follows straight paths
-only. Runs inside the step kernel: no host sync.
+resting body), converges only on a full step that is collision-free, and always searches; with
+static shapes or bodies that touch each other the search follows straight paths only. Runs
+inside the step kernel: no host sync.
 """
 
 from types import SimpleNamespace
@@ -38,7 +38,7 @@ def build(t) -> SimpleNamespace:
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
-    assemble, solve_tree, solve_factored = t.assemble, t.solve_tree, t.solve_factored
+    assemble, solve, solve_factored = t.assemble, t.solve, t.solve_factored
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
     incremental_potential = t.incremental_potential
     step_bound, touching, cover = t.step_bound, t.touching, t.cover
@@ -192,6 +192,13 @@ def build(t) -> SimpleNamespace:
                 noise += wp.abs(force[i]) * size
         return two * update_roundoff * kinetic_scale * noise
 
+    @wp.func(inline=True)
+    def passable(model: Model):
+        """Whether the scene has things a point could pass through between two checks of its
+        distance: static shapes, or bodies that may touch each other (unlike a half-space's,
+        their distances are unsigned)."""
+        return model.shape_kind.shape[0] > 0 or model.touch_a.shape[0] > 0
+
     @wp.func
     def line_search(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
                     scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int,
@@ -213,8 +220,8 @@ def build(t) -> SimpleNamespace:
         halvings = int(0)
         trial = energy
         # along turns points leave their straight lines: a check of its end is enough against
-        # half-spaces (one free side), not against a static shape a point could pass
-        if model.shape_kind.shape[0] == 0:
+        # half-spaces (one free side), not against a static shape or a body a point could pass
+        if not passable(model):
             move(model, q, scratch, env, full_step(model, scratch, env), 1)
             if model.has_contact != 0:      # the near pairs must cover the turned end too
                 cover(model, q, scratch, env, 0)
@@ -240,23 +247,24 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def resting(model: Model, scratch: Scratch, env: int):
-        """Whether a pair was closer than d̂ at q_n (its lagged normal force is positive)."""
+        """Whether a listed pair was closer than d̂ at q_n (its lagged normal force is
+        positive; only listed pairs hold one)."""
         found = int(0)
-        for pair in range(scratch.friction_normal.shape[1]):
-            if scratch.friction_normal[env, pair] > zero:
+        for k in range(scratch.near_count[env]):
+            if scratch.friction_normal[env, scratch.near_pairs[env, k]] > zero:
                 found = 1
         return found != 0
 
     @wp.func
     def reachable(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
         """Whether Newton may start from the prediction q: it touches nothing and, with static
-        shapes (which, unlike a half-space, a point can pass), the straight path to it from
+        shapes or bodies that touch each other (``passable``), the straight path to it from
         q_n keeps every gap (``step_bound`` of 1 from q_n; scratch.q_start and dq are used as
         its input, before Newton sets them). The near pairs first cover q (``cover``: the
         commands and the warm start may have moved it beyond the margins)."""
         cover(model, q, scratch, env, 0)
         clear = True
-        if model.shape_kind.shape[0] > 0:
+        if passable(model):
             for k in range(model.elim_order.shape[0]):
                 b = model.elim_order[k]
                 scratch.q_start[env, b] = scratch.q_n[env, b]
@@ -269,8 +277,8 @@ def build(t) -> SimpleNamespace:
     def newton(model: Model, state: State, control: Control, scratch: Scratch, env: int,
                kinetic_scale: scalar, bdf2: int):
         """Minimise E from q̃ without the commands' push (scratch.q_start, see ``predict``).
-        Returns (iterations, halvings, line-search failures,
-        converged, residual [m/s]); the result is in state.q."""
+        Returns (iterations, halvings, line-search failures, converged, residual [m/s],
+        inner iterations and stalls of the coupled solve); the result is in state.q."""
         q = state.q
         n_free = model.elim_order.shape[0]
         dt = model.dt
@@ -316,6 +324,8 @@ def build(t) -> SimpleNamespace:
         converged = int(0)
         residual = zero
         factored = int(0)
+        inner = int(0)
+        stalls = int(0)
         for it in range(model.newton_max_iter):
             iterations = it + 1
             for k in range(n_free):
@@ -332,7 +342,9 @@ def build(t) -> SimpleNamespace:
                     converged = 1
                     break
             assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2, 1)
-            solve_tree(model, scratch, env)
+            used, stalled = solve(model, scratch, env)
+            inner += used
+            stalls += stalled
             factored = 1
             residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
             if small != 0:
@@ -347,7 +359,7 @@ def build(t) -> SimpleNamespace:
             halvings += used
             failures += 1 - accepted
             energy = trial
-        return iterations, halvings, failures, converged, residual
+        return iterations, halvings, failures, converged, residual, inner, stalls
 
     return SimpleNamespace(warm_start=warm_start, update_size=update_size,
                            update_test=update_test, extent=extent,

@@ -3,28 +3,35 @@ points as the kernel's ``contact.pair_gap`` computes them (refusing a touching s
 ``Stepper.energy``, ``Stepper.contacts``; the last bits may differ from the kernel's).
 
 Pairs are numbered as in the model (physics.fields ``pair``): point × static thing, then
-moving edge × static edge, then moving face × static vertex.
+moving edge × static edge, then moving face × static vertex (the static pairs), then a point
+× a face of another body, then an edge × an edge of another body (pairs of bodies).
 """
+
+import math
 
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.static_shapes import shape_separation, triangle_weights
+from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_separation, triangle_weights
 
-__all__ = ['Gap', 'pair_gap', 'pair_weight', 'pair_distances', 'point_distances',
-           'segment_params']
+__all__ = ['Gap', 'near_pairs', 'pair_gap', 'pair_total', 'pair_weight', 'pair_distances',
+           'point_distances', 'segment_params']
 
 
 class Gap:
     """One pair at one state: ``body`` (moving), ``distance`` d [m], ``normal`` (unit, from the
-    static side towards the body), ``rest`` (x̄ of the moving side's nearest point, body
-    frame), ``radius`` (of the moving side [m]) and ``point`` (the nearest point of the static
+    other side towards the body), ``rest`` (x̄ of the moving side's nearest point, body
+    frame), ``radius`` (of the moving side [m]) and ``point`` (the nearest point of the other
     side's surface [m, world]); ``static`` indexes the names of the static things, then of the
-    static edges' and vertices' fixed bodies (HostModel.static_names)."""
+    static edges' and vertices' fixed bodies (HostModel.static_names), or is None where the
+    other side is the moving body ``other``, whose nearest point has rest position
+    ``other_rest`` and radius ``other_radius``."""
 
-    def __init__(self, body, distance, normal, rest, radius, point, static):
+    def __init__(self, body, distance, normal, rest, radius, point, static, other=None,
+                 other_rest=None, other_radius=0.0):
         self.body, self.distance, self.normal = int(body), float(distance), normal
         self.rest, self.radius, self.point, self.static = rest, float(radius), point, static
+        self.other, self.other_rest, self.other_radius = other, other_rest, float(other_radius)
 
 
 def segment_params(a, b, c, e) -> tuple[float, float]:
@@ -68,9 +75,48 @@ def _unit(gap) -> tuple[float, np.ndarray]:
     return length, gap / length if length > 0.0 else np.array([0.0, 0.0, 1.0])
 
 
+def pair_total(model) -> int:
+    """How many pairs ``model`` (a dict of its fields) numbers: the static ones, then point ×
+    face and edge × edge of every two moving primitives (only those of bodies that may touch
+    each other are ever evaluated)."""
+    return (len(model['pair_on']) + len(model['point_body']) * len(model['face_body'])
+            + len(model['edge_body']) ** 2)
+
+
+def _body_gap(model, q, k: int) -> Gap:
+    """Pair ``k`` of the pairs of bodies: point × face, then edge × edge."""
+    faces = len(model['face_body'])
+    if k < len(model['point_body']) * faces:
+        i, f = divmod(k, faces)
+        body, other = model['point_body'][i], model['face_body'][f]
+        rest, radius = model['point_rest'][i], model['point_radius'][i]
+        corners = np.asarray(model['face_rest'][f]).T
+        x = _world(q[body], rest)
+        weights = triangle_weights(x, *(_world(q[other], c) for c in corners))
+        other_rest = weights[0] * corners[0] + weights[1] * corners[1] + weights[2] * corners[2]
+        nearest = _world(q[other], other_rest)
+        length, normal = _unit(x - nearest)
+        return Gap(body, length - radius, normal, rest, radius, nearest, None, other,
+                   other_rest)
+    e, s = divmod(k - len(model['point_body']) * faces, len(model['edge_body']))
+    body, other = model['edge_body'][e], model['edge_body'][s]
+    ea, eb, sa, sb = (model[end][j] for end, j in (('edge_a', e), ('edge_b', e),
+                                                    ('edge_a', s), ('edge_b', s)))
+    u, w = segment_params(_world(q[body], ea), _world(q[body], eb), _world(q[other], sa),
+                          _world(q[other], sb))
+    rest, other_rest = ea + u * (eb - ea), sa + w * (sb - sa)
+    nearest = _world(q[other], other_rest)
+    length, normal = _unit(_world(q[body], rest) - nearest)
+    radius, own = model['edge_radius'][e], model['edge_radius'][s]
+    return Gap(body, length - radius - own, normal, rest, radius, nearest + own * normal, None,
+               other, other_rest, own)
+
+
 def pair_gap(model, q, p: int) -> Gap:
     """Pair ``p`` of ``model`` (a dict of its fields) at states ``q`` (n_bodies, 12)."""
     things, points, edges = _families(model)
+    if p >= len(model['pair_on']):
+        return _body_gap(model, q, p - len(model['pair_on']))
     if p < points:
         i, g = divmod(p, things)
         body, rest, radius = model['point_body'][i], model['point_rest'][i], \
@@ -112,23 +158,115 @@ def pair_weight(model, q_n, p: int) -> float:
     """The barrier's weight of pair ``p`` for a step that started at ``q_n``: IPC's
     near-parallel mollifier for an edge pair (the kernel's ``pair_weight``), else 1."""
     things, points, edges = _families(model)
-    if not points <= p < points + edges:
+    statics = len(model['pair_on'])
+    body_edges = statics + len(model['point_body']) * len(model['face_body'])
+    if points <= p < points + edges:
+        e, s = divmod(p - points, len(model['static_edge_a']))
+        other = model['static_edge_b'][s] - model['static_edge_a'][s]
+        other_world = other
+    elif p >= body_edges:
+        e, s = divmod(p - body_edges, len(model['edge_body']))
+        other = model['edge_b'][s] - model['edge_a'][s]
+        other_world = pm.matmul(q_n[model['edge_body'][s], 3:].reshape(3, 3), other)
+    else:
         return 1.0
-    e, s = divmod(p - points, len(model['static_edge_a']))
     own = model['edge_b'][e] - model['edge_a'][e]
-    other = model['static_edge_b'][s] - model['static_edge_a'][s]
     limit = 1.0e-3 * pm.dot(own, own) * pm.dot(other, other)
-    cross = pm.cross(pm.matmul(q_n[model['edge_body'][e], 3:].reshape(3, 3), own), other)
+    cross = pm.cross(pm.matmul(q_n[model['edge_body'][e], 3:].reshape(3, 3), own), other_world)
     ratio = pm.dot(cross, cross) / limit if limit > 0.0 else 1.0
     return (2.0 - ratio) * ratio if ratio < 1.0 else 1.0
 
 
 def pair_distances(q, model, count: int | None = None) -> np.ndarray:
-    """The distance [m] of every pair (the first ``count``) at states ``q`` (n_bodies, 12),
-    +∞ where it may not touch (pair_on 0)."""
+    """The distance [m] of every static pair (the first ``count``) at states ``q``
+    (n_bodies, 12), +∞ where it may not touch (pair_on 0)."""
     count = len(model['pair_on']) if count is None else count
     return np.array([pair_gap(model, q, p).distance if model['pair_on'][p] else np.inf
                      for p in range(count)])
+
+
+def near_pairs(model, q, reach: float) -> np.ndarray:
+    """The pairs that may touch whose distance at states ``q`` may be below ``reach`` [m]
+    (ascending): every pair of a family is tested at once by a lower bound of its distance
+    (the exact distance to a half-space; between the bounding spheres of a point and a
+    shape, of two segments, of a triangle and a vertex or a point)."""
+    near = np.concatenate([_near_points(model, q, reach), _near_edges(model, q, reach),
+                           _near_faces(model, q, reach)]) & (np.asarray(model['pair_on']) != 0)
+    touch = np.asarray(model['touch_slot']) >= 0
+    points, faces = _moved(q, model['point_body'], np.asarray(model['point_rest'])[:, None]), \
+        _moved(q, model['face_body'], np.transpose(model['face_rest'], (0, 2, 1)))
+    point_balls = points[:, 0], np.asarray(model['point_radius'])
+    face_centre, face_reach = _ball(faces)
+    body_pf = (_apart(point_balls, (face_centre, face_reach)) < reach) & touch[np.ix_(
+        model['point_body'], model['face_body'])]
+    edges = _moved(q, model['edge_body'], np.stack([model['edge_a'], model['edge_b']], axis=1))
+    centre, size = _ball(edges)
+    balls = centre, size + model['edge_radius']
+    body_ee = (_apart(balls, balls) < reach) & touch[np.ix_(model['edge_body'],
+                                                            model['edge_body'])]
+    body_ee &= np.arange(len(centre))[:, None] < np.arange(len(centre))[None]
+    near = np.concatenate([near, body_pf.reshape(-1), body_ee.reshape(-1)])
+    return np.flatnonzero(near)
+
+
+def _apart(first, second) -> np.ndarray:
+    """The gaps [m] between every ball of ``first`` and of ``second``, each (centres (k, 3),
+    radii (k,))."""
+    return (np.linalg.norm(first[0][:, None] - second[0][None], axis=2) - first[1][:, None]
+            - second[1][None])
+
+
+def _near_points(model, q, reach) -> np.ndarray:
+    body, radius = model['point_body'], np.asarray(model['point_radius'])
+    x = _moved(q, body, np.asarray(model['point_rest'])[:, None])[:, 0]
+    planes, shapes = len(model['plane_offset']), len(model['shape_kind'])
+    near = np.zeros((len(body), planes + shapes), dtype=bool)
+    if planes:
+        near[:, :planes] = (x @ np.asarray(model['plane_normal']).T - model['plane_offset']
+                            - radius[:, None] < reach)
+    for s in range(shapes):
+        near[:, planes + s] = (np.linalg.norm(x - model['shape_center'][s], axis=1)
+                               - _bounding_radius(model['shape_kind'][s], model['shape_size'][s])
+                               - radius < reach)
+    return near.reshape(-1)
+
+
+def _ball(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centres, radii) of spheres holding each row's points (k, m, 3)."""
+    centre = points.mean(axis=1)
+    return centre, np.linalg.norm(points - centre[:, None], axis=2).max(axis=1, initial=0.0)
+
+
+def _moved(q, bodies, rests) -> np.ndarray:
+    """World points (k, m, 3) of rest points ``rests`` (k, m, 3) on ``bodies`` (k,)."""
+    return q[bodies, None, :3] + np.einsum('kij,kmj->kmi', q[bodies, 3:].reshape(-1, 3, 3),
+                                           rests)
+
+
+def _near_edges(model, q, reach) -> np.ndarray:
+    ends = _moved(q, model['edge_body'], np.stack([model['edge_a'], model['edge_b']], axis=1))
+    centre, size = _ball(ends)
+    other, other_size = _ball(np.stack([model['static_edge_a'], model['static_edge_b']], axis=1))
+    return (_apart((centre, size + model['edge_radius']),
+                   (other, other_size + model['static_edge_radius'])) < reach).reshape(-1)
+
+
+def _near_faces(model, q, reach) -> np.ndarray:
+    centre, size = _ball(_moved(q, model['face_body'], np.transpose(model['face_rest'], (0, 2, 1))))
+    return (_apart((centre, size), (np.asarray(model['static_vertex']).reshape(-1, 3),
+                                    np.asarray(model['static_vertex_radius'])))
+            < reach).reshape(-1)
+
+
+def _bounding_radius(kind: int, size) -> float:
+    """The radius [m] of a sphere about a shape's centre that holds it."""
+    if kind == SHAPE_KINDS['box']:
+        return float(np.linalg.norm(size))
+    if kind == SHAPE_KINDS['sphere']:
+        return float(size[0])
+    if kind == SHAPE_KINDS['capsule']:
+        return float(size[0] + size[1])
+    return float(math.hypot(size[0], size[1]))
 
 
 def point_distances(q, model) -> np.ndarray:

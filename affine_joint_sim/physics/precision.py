@@ -43,5 +43,8 @@ def types_for(scalar) -> SimpleNamespace:
         # singular to rounding (a near-massless link's rotation) is regularised, not factored
         # into NaN
         pivot_floor=scalar(max(1.0e-14, 16.0 * eps)),
+        # the coupled solve's stopping rᵀM⁻¹r, relative to the right-hand side's: (10⁻⁶)² in
+        # float64, 100 rounding units (about (3.4·10⁻³)²) in float32
+        cg_goal=scalar(max(1.0e-12, 100.0 * eps)),
         # ‖AAᵀ − I‖² of a rotation rounded to this precision stays below this
         rigid_strain=scalar((16.0 * eps) * (16.0 * eps)))

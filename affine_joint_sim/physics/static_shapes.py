@@ -23,14 +23,16 @@ __all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_separation', 'shape_distance',
 SHAPE_KINDS = {'box': 1, 'sphere': 2, 'capsule': 3, 'cylinder': 4, 'triangle': 5}
 
 
-def static_shapes(bodies, q0: np.ndarray, geometries_of) -> tuple[dict, list[int], list[str]]:
+def static_shapes(bodies, q0: np.ndarray, geometries_of,
+                  moving: bool = False) -> tuple[dict, list[int], list[str]]:
     """(shape model fields, the body index of each shape, a name for each shape) of the fixed
-    ones of the scene bodies ``bodies`` with collision geometry, at states ``q0``
-    (n_bodies, 12); ``geometries_of(body)`` lists a body's geometries (its own shape for
-    ``collision: shape``)."""
+    ones (with ``moving``: the free ones, placed as they start) of the scene bodies
+    ``bodies`` with collision geometry, at states ``q0`` (n_bodies, 12);
+    ``geometries_of(body)`` lists a body's geometries (its own shape for ``collision:
+    shape``)."""
     kinds, rotations, centers, sizes, owners, names = [], [], [], [], [], []
     for b, body in enumerate(bodies):
-        if not body.fixed or body.collision is None:
+        if body.fixed == moving or body.collision is None:
             continue
         geometries = geometries_of(body)
         for k, geometry in enumerate(geometries):

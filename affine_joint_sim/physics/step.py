@@ -36,13 +36,13 @@ def build(t) -> SimpleNamespace:
         if model.has_contact != 0:
             lag_friction(model, state, scratch, env)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
-        iterations, halvings, failures, converged, residual = newton(
+        iterations, halvings, failures, converged, residual, inner, stalls = newton(
             model, state, control, scratch, env, kinetic_scale, bdf2)
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if finite == 0:
             converged = 0
         write_stats(model, state, scratch, env, chunk, iterations, halvings, converged,
-                    failures, aliased, dropped, finite, rejected, residual,
+                    failures, aliased, dropped, finite, rejected, residual, inner, stalls,
                     largest_gap(model, state, env), largest_strain(model, state, env))
 
     return SimpleNamespace(step=step)

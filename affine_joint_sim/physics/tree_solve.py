@@ -127,12 +127,13 @@ def build(t) -> SimpleNamespace:
                 scratch.factor[env, p] = subtract_gram(scratch.factor[env, p], w)
 
     @wp.func
-    def solve_factored(model: Model, scratch: Scratch, env: int):
-        """Solve H dq = rhs into scratch.dq with the factors of the last ``factor_tree``."""
+    def solve_factored_into(model: Model, scratch: Scratch, env: int,
+                            source: wp.array2d(dtype=vec12), target: wp.array2d(dtype=vec12)):
+        """Solve H x = source into target with the factors of the last ``factor_tree``."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
             b = model.elim_order[k]
-            scratch.forward[env, b] = scratch.rhs[env, b]
+            scratch.forward[env, b] = source[env, b]
         for k in range(n_free):
             b = model.elim_order[k]
             y = forward_solve(scratch.factor[env, b], scratch.pivot_inverse[env, b],
@@ -147,9 +148,14 @@ def build(t) -> SimpleNamespace:
             r = scratch.forward[env, b]
             p = model.elim_parent[b]
             if p >= 0:
-                r = r - scratch.coupling[env, b] @ scratch.dq[env, p]
-            scratch.dq[env, b] = backward_solve(scratch.factor[env, b],
-                                                scratch.pivot_inverse[env, b], r)
+                r = r - scratch.coupling[env, b] @ target[env, p]
+            target[env, b] = backward_solve(scratch.factor[env, b],
+                                            scratch.pivot_inverse[env, b], r)
+
+    @wp.func
+    def solve_factored(model: Model, scratch: Scratch, env: int):
+        """Solve H dq = rhs into scratch.dq with the factors of the last ``factor_tree``."""
+        solve_factored_into(model, scratch, env, scratch.rhs, scratch.dq)
 
     @wp.func
     def solve_tree(model: Model, scratch: Scratch, env: int):
@@ -159,4 +165,5 @@ def build(t) -> SimpleNamespace:
 
     return SimpleNamespace(cholesky=cholesky, forward_solve=forward_solve,
                            backward_solve=backward_solve, factor_tree=factor_tree,
+                           solve_factored_into=solve_factored_into,
                            solve_factored=solve_factored, solve_tree=solve_tree)
