@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from affine_joint_sim.bench.bodies import gripper_scene, lift_target
 from affine_joint_sim.physics.evaluate import Stages
 from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap
 from affine_joint_sim.scene import Scene, SceneError
@@ -203,3 +204,25 @@ def test_the_step_bound_of_two_bodies_stops_short_of_the_analytic_impact(case):
 def test_two_bodies_starting_inside_each_other_are_refused():
     with pytest.raises(SceneError, match=r"body '[ab]' starts 0\.01 m inside body '[ab]'"):
         Stepper(_scene([_box('a', (0.0, 0.0, 0.0)), _box('b', (0.02, 0.01, 0.09))]))
+
+
+@pytest.mark.parametrize('force, lifted', [(1.5, True), (0.8, False)])
+def test_a_gripper_lifts_a_box_only_when_friction_can_carry_it(force, lifted):
+    """Squeezed with F by each finger, the box is carried up 5 cm with the hand when
+    2 μ F > m g (1.5 N against 0.98 N) and slips out, staying on the ground, when
+    2 μ F < m g (0.8 N); the fingers and the box never interpenetrate (separating axes)
+    either way."""
+    sim = Stepper(Scene.from_dict(gripper_scene(force, dt=0.005)))
+    start = sim.body_q[4, 2]
+    for k in range(200):
+        sim.set_target('lift', lift_target(k * sim.dt))
+        sim.step()
+        q = sim.body_q
+        assert sim.stats['min_distance'] > 0.0
+        for f in (2, 3):
+            assert separation(q[f], q[4], [0.005, 0.015, 0.015], [0.02] * 3) > 0.0
+    rise = sim.body_q[4, 2] - start
+    if lifted:
+        assert rise == pytest.approx(0.05, abs=3e-3)
+    else:
+        assert abs(rise) < 1e-3

@@ -14,7 +14,8 @@ from pathlib import Path
 
 __all__ = ['SECTIONS', 'add_arguments', 'main']
 
-SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop', 'record', 'robots', 'contact')
+SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop', 'record', 'robots', 'contact',
+            'bodies')
 
 
 def _section(name: str):
