@@ -401,12 +401,13 @@ def build(t) -> SimpleNamespace:
         return weight
 
     @wp.func
-    def corner_reach(dq: vec12, corners: mat33):
-        """The most [m] a corner of a triangle (rest corners as columns) moves under dq."""
+    def corner_reach(dq: vec12, corners: mat33, shift: vec3):
+        """The most [m] a corner of a triangle (rest corners as columns) moves under dq,
+        relative to a displacement ``shift``."""
         most = zero
         for c in range(3):
             moved = world_point(dq, vec3(corners[0, c], corners[1, c], corners[2, c]))
-            most = wp.max(most, wp.length(moved))
+            most = wp.max(most, wp.length(moved - shift))
         return most
 
     @wp.func
@@ -416,30 +417,43 @@ def build(t) -> SimpleNamespace:
                       wp.length(world_point(dq, model.edge_b[e])))
 
     @wp.func
+    def edges_reach(model: Model, dq: vec12, e: int, dq_other: vec12, s: int):
+        """The most [m] an end of edge e under dq moves relative to an end of edge s under
+        dq_other."""
+        a0 = world_point(dq, model.edge_a[e])
+        a1 = world_point(dq, model.edge_b[e])
+        b0 = world_point(dq_other, model.edge_a[s])
+        b1 = world_point(dq_other, model.edge_b[s])
+        return wp.max(wp.max(wp.length(a0 - b0), wp.length(a0 - b1)),
+                      wp.max(wp.length(a1 - b0), wp.length(a1 - b1)))
+
+    @wp.func
     def reach(model: Model, dq: vec12, dq_other: vec12, p: int):
         """The most [m] pair p's distance changes under dq of its first body and dq_other of
-        its other (for an edge, face or point pair of bodies): the largest of the corners'
-        |J(x̄) dq| on each side (a segment's or triangle's points are their corners' convex
-        combinations)."""
+        its other (for a pair of bodies): the largest corner displacement |J(x̄) dq| of its
+        moving edge or face against a static side (a segment's or triangle's points are
+        their corners' convex combinations); against another body's the largest of one
+        side's corners relative to the other's (the relative displacement of the nearest
+        points is a convex combination of those: a common motion, two boxes falling
+        together, does not count)."""
         k = p - point_pairs(model)
         most = zero
         if k < edge_pairs(model):
             most = edge_reach(model, dq, k / model.static_edge_a.shape[0])
         elif p < static_pairs(model):
             most = corner_reach(dq, model.face_rest[(k - edge_pairs(model))
-                                                    / model.static_vertex.shape[0]])
+                                                    / model.static_vertex.shape[0]],
+                                vec3(zero, zero, zero))
         if wp.static(bodies):
             if p >= body_faces_end(model):
                 k = p - body_faces_end(model)
                 e = k / model.edge_body.shape[0]
-                most = edge_reach(model, dq, e) + edge_reach(model, dq_other,
-                                                            k - e * model.edge_body.shape[0])
+                most = edges_reach(model, dq, e, dq_other, k - e * model.edge_body.shape[0])
             elif p >= static_pairs(model):
                 k = p - static_pairs(model)
                 i = k / model.face_body.shape[0]
-                most = (wp.length(world_point(dq, model.point_rest[i]))
-                        + corner_reach(dq_other,
-                                       model.face_rest[k - i * model.face_body.shape[0]]))
+                most = corner_reach(dq_other, model.face_rest[k - i * model.face_body.shape[0]],
+                                    world_point(dq, model.point_rest[i]))
         return most
 
     return SimpleNamespace(triangle_weights=triangle_weights, contact_distance=distance,

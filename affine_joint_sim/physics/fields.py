@@ -229,6 +229,13 @@ FIELDS = _fields('model', [
      'of the contact between two bodies this iterate'),
     ('block_used', 'int32', ('env', 'touch'), '-', '1 if contact_block holds a block this '
      'iterate'),
+    ('forest_parent', 'int32', EB, '-', 'each free body\'s parent in the elimination forest of '
+     'this iterate (joints, then contacts between bodies joining two trees), -1 for a root'),
+    ('forest_block', 'mat12', EB, 'kg', 'H[b, forest_parent[b]]'),
+    ('forest_order', 'int32', ('env', 'free'), '-', 'the free bodies, every one before its '
+     'forest parent'),
+    ('forest_root', 'int32', EB, '-', 'union-find links of the trees while the forest grows'),
+    ('forest_depth', 'int32', EB, '-', 'each body\'s depth below its forest root'),
     ('cg_residual', 'vec12', EB, 'J', 'residual of the coupled solve (conjugate gradients)'),
     ('cg_preconditioned', 'vec12', EB, 'm, -', 'the tree solve of that residual'),
     ('cg_direction', 'vec12', EB, 'm, -', 'conjugate search direction'),

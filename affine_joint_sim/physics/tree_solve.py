@@ -2,7 +2,10 @@
 
 The free bodies joined by joints form a forest; eliminating them in ``model.elim_order``
 (every body before its tree parent) factors H without fill-in: 12×12 blocks only. The factors
-stay in scratch, so a later right-hand side is solved without factoring again.
+stay in scratch, so a later right-hand side is solved without factoring again. Where bodies may
+touch each other (``t.bodies``) the forest is the joints' grown by contacts between bodies
+each iterate (``coupled_solve.grow_forest``: scratch.forest_order, forest_parent,
+forest_block), read through the same three accessors.
 """
 
 from types import SimpleNamespace
@@ -17,6 +20,38 @@ def build(t) -> SimpleNamespace:
     vec12, mat12 = t.vec12, t.mat12
     Model, Scratch = t.structs.Model, t.structs.Scratch
     pivot_floor, zero, one = t.pivot_floor, t.zero, t.one
+    bodies = t.bodies
+
+    @wp.func(inline=True)
+    def eliminated(model: Model, scratch: Scratch, env: int, k: int):
+        """The k-th free body of the elimination order."""
+        if wp.static(bodies):
+            return scratch.forest_order[env, k]
+        return model.elim_order[k]
+
+    @wp.func(inline=True)
+    def parent_of(model: Model, scratch: Scratch, env: int, b: int):
+        """Body b's parent in the elimination forest, -1 for a root."""
+        if wp.static(bodies):
+            return scratch.forest_parent[env, b]
+        return model.elim_parent[b]
+
+    @wp.func(inline=True)
+    def joint_block(model: Model, scratch: Scratch, env: int, b: int):
+        """H[b, elim_parent[b]] of the joints: model.elim_offdiag or, where
+        scratch.offdiag_set says so, scratch.offdiag (a joint's state term)."""
+        off = model.elim_offdiag[b]
+        if model.state_coupling != 0 and scratch.offdiag_set[env, b] != 0:
+            off = scratch.offdiag[env, b]
+        return off
+
+    @wp.func(inline=True)
+    def parent_block(model: Model, scratch: Scratch, env: int, b: int):
+        """H[b, parent of b]: the joints' (``joint_block``), or with contact between bodies
+        the forest's."""
+        if wp.static(bodies):
+            return scratch.forest_block[env, b]
+        return joint_block(model, scratch, env, b)
 
     @wp.func
     def cholesky(a: mat12):
@@ -104,25 +139,22 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def factor_tree(model: Model, scratch: Scratch, env: int):
-        """Factor H from the blocks scratch.hessian (diagonal) and model.elim_offdiag or, where
-        scratch.offdiag_set says so, scratch.offdiag (coupling to the tree parent): each body's
-        lower factor into scratch.factor (its inverse pivots into scratch.pivot_inverse), its
-        L⁻¹·coupling into scratch.coupling."""
+        """Factor H from the blocks scratch.hessian (diagonal) and the couplings to the
+        elimination parents (``parent_block``): each body's lower factor into scratch.factor
+        (its inverse pivots into scratch.pivot_inverse), its L⁻¹·coupling into
+        scratch.coupling."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
-            b = model.elim_order[k]
+            b = eliminated(model, scratch, env, k)
             scratch.factor[env, b] = scratch.hessian[env, b]
         for k in range(n_free):
-            b = model.elim_order[k]
+            b = eliminated(model, scratch, env, k)
             low, inverse = cholesky(scratch.factor[env, b])
             scratch.factor[env, b] = low
             scratch.pivot_inverse[env, b] = inverse
-            p = model.elim_parent[b]
+            p = parent_of(model, scratch, env, b)
             if p >= 0:
-                off = model.elim_offdiag[b]
-                if model.state_coupling != 0 and scratch.offdiag_set[env, b] != 0:
-                    off = scratch.offdiag[env, b]
-                w = forward_solve_matrix(low, inverse, off)
+                w = forward_solve_matrix(low, inverse, parent_block(model, scratch, env, b))
                 scratch.coupling[env, b] = w
                 scratch.factor[env, p] = subtract_gram(scratch.factor[env, p], w)
 
@@ -132,21 +164,21 @@ def build(t) -> SimpleNamespace:
         """Solve H x = source into target with the factors of the last ``factor_tree``."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
-            b = model.elim_order[k]
+            b = eliminated(model, scratch, env, k)
             scratch.forward[env, b] = source[env, b]
         for k in range(n_free):
-            b = model.elim_order[k]
+            b = eliminated(model, scratch, env, k)
             y = forward_solve(scratch.factor[env, b], scratch.pivot_inverse[env, b],
                               scratch.forward[env, b])
             scratch.forward[env, b] = y
-            p = model.elim_parent[b]
+            p = parent_of(model, scratch, env, b)
             if p >= 0:
                 scratch.forward[env, p] = subtract_transposed(scratch.forward[env, p],
                                                               scratch.coupling[env, b], y)
         for kk in range(n_free):
-            b = model.elim_order[n_free - 1 - kk]
+            b = eliminated(model, scratch, env, n_free - 1 - kk)
             r = scratch.forward[env, b]
-            p = model.elim_parent[b]
+            p = parent_of(model, scratch, env, b)
             if p >= 0:
                 r = r - scratch.coupling[env, b] @ target[env, p]
             target[env, b] = backward_solve(scratch.factor[env, b],
@@ -165,5 +197,5 @@ def build(t) -> SimpleNamespace:
 
     return SimpleNamespace(cholesky=cholesky, forward_solve=forward_solve,
                            backward_solve=backward_solve, factor_tree=factor_tree,
-                           solve_factored_into=solve_factored_into,
+                           solve_factored_into=solve_factored_into, joint_block=joint_block,
                            solve_factored=solve_factored, solve_tree=solve_tree)
