@@ -1,9 +1,10 @@
 """Contact between two moving bodies (README.md#contact): a free collision in zero gravity
 conserves linear momentum and never interpenetrates (the separating-axis test of the two
-boxes, independent of the simulator's own distances); three stacked boxes stand; the
-point–face and edge–edge gradients of two bodies against finite differences; the coupled
-solve against a dense solve of the assembled system; the step bound against the analytic
-impact of two bodies."""
+boxes, independent of the simulator's own distances); three stacked boxes stand; a gripper
+lifts a box only when friction can carry it; thrown bricks never interpenetrate; the
+point–face and edge–edge gradients and the friction of two bodies against finite
+differences; the coupled solve against a dense solve of the assembled system; the step bound
+against the analytic impact of two bodies."""
 
 import math
 
@@ -260,3 +261,40 @@ def test_thrown_bricks_never_interpenetrate():
         assert sim.stats['min_distance'] > 0.0
         bumped |= {(c['body'], c['other']) for c in sim.contacts if c['other'] != 'ground'}
     assert len(bumped) >= 2                 # bricks hit each other
+
+
+@pytest.mark.parametrize('slip', [4e-6, 4e-5])
+def test_friction_between_two_bodies_matches_finite_differences(slip):
+    """Lagged friction between a box resting on another, the top one slid by ``slip`` [m]
+    since the step's start (below and beyond ε_v dt = 1e-5 m): its gradient over both bodies
+    against central differences of the energy, equal and opposite on the two, and its
+    Hessian symmetric PSD with the two bodies' blocks coupled."""
+    scene = _scene([_box('low', (0.0, 0.0, 0.0)), _box('top', (0.0, 0.0, 0.1005))])
+    with_contact, without = Stages(scene), Stages(scene.model_copy(update={'contact': None}))
+    q_n = with_contact.host.body_q0.copy()
+    q = q_n.copy()
+    q[1, :2] += slip * np.array([0.6, 0.8])
+    q_tilde = q + 1e-4
+    for stages in (with_contact, without):
+        stages.scratch.q_n.assign(q_n[None])
+    with_contact.scratch.friction_normal.fill_(1e-3)      # dt² λ on every pair [N·s²]
+
+    def friction_gradient(x):
+        return with_contact.newton_system(x, q_tilde)[0] - without.newton_system(x, q_tilde)[0]
+
+    def energy(x):
+        return with_contact.energy(x, q_tilde) - without.energy(x, q_tilde)
+
+    step = 1e-8
+    fd = np.zeros(24)
+    for i in range(24):
+        e = np.zeros_like(q)
+        e[i // 12, i % 12] = step
+        fd[i] = (energy(q + e) - energy(q - e)) / (2 * step)
+    gradient = friction_gradient(q)
+    assert np.abs(gradient[:2]).max() > 1e-4            # friction acts along the slip
+    assert_matches_differences(gradient, fd, rtol=1e-4, atol_share=1e-5)
+    np.testing.assert_allclose(gradient[:3], -gradient[12:15], atol=1e-9 * np.abs(gradient).max())
+    hessian = with_contact.newton_system(q, q_tilde)[1] - without.newton_system(q, q_tilde)[1]
+    assert_psd(hessian)
+    assert np.abs(hessian[:12, 12:]).max() > 0.0
