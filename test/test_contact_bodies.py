@@ -1,7 +1,8 @@
 """Contact between two moving bodies (README.md#contact): a free collision in zero gravity
 conserves linear momentum and never interpenetrates (the separating-axis test of the two
 boxes, independent of the simulator's own distances); three stacked boxes stand; a gripper
-lifts a box only when friction can carry it; thrown bricks never interpenetrate; the
+lifts a box only when friction can carry it; thrown bricks never interpenetrate; a contact
+sensor feels the box resting on its body; the
 point–face and edge–edge gradients and the friction of two bodies against finite
 differences; the coupled solve against a dense solve of the assembled system; the step bound
 against the analytic impact of two bodies."""
@@ -11,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from affine_joint_sim.bench.bodies import gripper_scene, lift_target
+from affine_joint_sim.bench.bodies import gripper_scene, lift_target, stack_scene
 from affine_joint_sim.physics.evaluate import Stages
 from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap
 from affine_joint_sim.scene import Scene, SceneError
@@ -298,3 +299,18 @@ def test_friction_between_two_bodies_matches_finite_differences(slip):
     hessian = with_contact.newton_system(q, q_tilde)[1] - without.newton_system(q, q_tilde)[1]
     assert_psd(hessian)
     assert np.abs(hessian[:12, 12:]).max() > 0.0
+
+
+def test_a_contact_sensor_feels_the_box_resting_on_its_body():
+    """Contact sensors on two stacked 1 kg boxes at rest: the lower one feels the ground's
+    push (both weights up) and the upper box pushing down (one weight), so it reads its own
+    weight, m g up; the upper one reads m g too."""
+    spec = stack_scene(2)
+    spec['sensors'] = [{'name': 'low', 'type': 'contact', 'body': 'box0'},
+                       {'name': 'top', 'type': 'contact', 'body': 'box1'}]
+    sim = Stepper(Scene.from_dict(spec))
+    for _ in range(200):
+        sim.step()
+    weight = np.array([0.0, 0.0, 9.81])
+    for name in ('low', 'top'):
+        np.testing.assert_allclose(sim.sensors[name]['force'], weight, rtol=1e-4, atol=1e-6)
