@@ -1,11 +1,10 @@
 """Contact between two moving bodies (README.md#contact): a free collision in zero gravity
-conserves linear momentum and never interpenetrates (the separating-axis test of the two
-boxes, independent of the simulator's own distances); three stacked boxes stand; a gripper
-lifts a box only when friction can carry it; thrown bricks never interpenetrate; a contact
-sensor feels the box resting on its body; the
-point–face and edge–edge gradients and the friction of two bodies against finite
-differences; the coupled solve against a dense solve of the assembled system; the step bound
-against the analytic impact of two bodies."""
+conserves linear momentum and never interpenetrates (the separating-axis test of the two boxes,
+independent of the simulator's own distances); three stacked boxes stand; a gripper lifts a box
+only when friction can carry it; thrown bricks never interpenetrate; a contact sensor feels the
+box resting on its body; the point–face and edge–edge gradients and the friction of two bodies
+against finite differences; the coupled solve against a dense solve of the assembled system;
+the step bound against the analytic impact of two bodies."""
 
 import math
 
