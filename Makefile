@@ -77,6 +77,9 @@ gallery: venv
 	$(VENV)/bin/affine-joint-sim run --scene ramp --mode fast --duration 2 --record results/gallery/ramp
 	$(VENV)/bin/affine-joint-sim render results/gallery/ramp --out docs/ramp.gif $(GALLERY_RENDER) \
 	  --view=-80,15
+	$(VENV)/bin/affine-joint-sim run --scene pile --mode fast --duration 2 --record results/gallery/pile
+	$(VENV)/bin/affine-joint-sim render results/gallery/pile --out docs/pile.gif $(GALLERY_RENDER) \
+	  --view=-60,65
 
 # The linter (rules in ruff.toml) first: it takes well under a second.
 lint: venv
