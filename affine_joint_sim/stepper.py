@@ -108,7 +108,7 @@ class Stepper:
             self._pool = ThreadPoolExecutor(len(self._chunks) - 1, 'affine-joint-sim-step')
             weakref.finalize(self, self._pool.shutdown, wait=False)
         self._host = build_model(scene)
-        self._k = step_kernels(scalar_of(scene.solver.precision), len(self._host.touch_a) > 0)
+        self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs)
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
         # a joint's index by name, and the joints that take a command: a control loop sets
         # torques by name every step, so these are looked up, not searched
@@ -482,7 +482,7 @@ class Stepper:
         if not self._host.has_contact:
             for name in CONTACT_STATS:
                 del stats[name]
-        if not len(self._host.touch_a):
+        if not self._host.has_body_pairs:
             for name in COUPLED_STATS:
                 del stats[name]
         stats['active_terms'] = self._active_terms()

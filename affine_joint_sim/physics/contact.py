@@ -30,7 +30,7 @@ INLINE = True
 
 def build(t) -> SimpleNamespace:
     """Warp functions of contact for the types namespace ``t``."""
-    vec3, vec12, mat12, scalar = t.vec3, t.vec12, t.mat12, t.scalar
+    vec3, vec12, mat33, mat12, scalar = t.vec3, t.vec12, t.mat33, t.mat12, t.scalar
     zero, half, one, two, three, four = t.zero, t.half, t.one, t.two, t.three, t.four
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
     world_point, jacobian_transpose, log = t.world_point, t.jacobian_transpose, t.log
@@ -50,7 +50,7 @@ def build(t) -> SimpleNamespace:
 
     @wp.func(inline=True)
     def listed_pair(model: Model, scratch: Scratch, env: int, k: int):
-        """The k-th pair this step evaluates (ascending)."""
+        """The k-th pair this step evaluates (the static pairs first, ascending)."""
         return scratch.near_pairs[env, k]
 
     @wp.func(inline=True)
@@ -95,6 +95,25 @@ def build(t) -> SimpleNamespace:
             most = wp.max(most, wp.abs(g[r, 0]) + wp.abs(g[r, 1]) + wp.abs(g[r, 2]))
         return wp.sqrt(most)
 
+    @wp.func(inline=True)
+    def edge_ball(model: Model, q: vec12, e: int):
+        """(midpoint [m], half length plus radius [m]) of moving edge e on a body at state q:
+        a sphere holding it."""
+        end_a = world_point(q, model.edge_a[e])
+        end_b = world_point(q, model.edge_b[e])
+        return half * (end_a + end_b), half * wp.length(end_b - end_a) + model.edge_radius[e]
+
+    @wp.func(inline=True)
+    def face_ball(q: vec12, corners: mat33):
+        """(centroid [m], its farthest corner's distance [m]) of the triangle with rest corners
+        ``corners`` (columns) on a body at state q: a sphere holding it."""
+        c0 = world_point(q, vec3(corners[0, 0], corners[1, 0], corners[2, 0]))
+        c1 = world_point(q, vec3(corners[0, 1], corners[1, 1], corners[2, 1]))
+        c2 = world_point(q, vec3(corners[0, 2], corners[1, 2], corners[2, 2]))
+        centre = (c0 + c1 + c2) / three
+        return centre, wp.max(wp.length(c0 - centre), wp.max(wp.length(c1 - centre),
+                                                              wp.length(c2 - centre)))
+
     @wp.func
     def place_primitives(model: Model, scratch: Scratch, env: int, b: int):
         """Body b's contact points, edge balls and face balls at q_n into scratch (the broad
@@ -103,19 +122,13 @@ def build(t) -> SimpleNamespace:
         for i in range(model.body_first_point[b], model.body_first_point[b + 1]):
             scratch.point_world[env, i] = world_point(q, model.point_rest[i])
         for e in range(model.body_first_edge[b], model.body_first_edge[b + 1]):
-            end_a = world_point(q, model.edge_a[e])
-            end_b = world_point(q, model.edge_b[e])
-            scratch.edge_centre[env, e] = half * (end_a + end_b)
-            scratch.edge_size[env, e] = half * wp.length(end_b - end_a) + model.edge_radius[e]
+            middle, size = edge_ball(model, q, e)
+            scratch.edge_centre[env, e] = middle
+            scratch.edge_size[env, e] = size
         for f in range(model.body_first_face[b], model.body_first_face[b + 1]):
-            corners = model.face_rest[f]
-            c0 = world_point(q, vec3(corners[0, 0], corners[1, 0], corners[2, 0]))
-            c1 = world_point(q, vec3(corners[0, 1], corners[1, 1], corners[2, 1]))
-            c2 = world_point(q, vec3(corners[0, 2], corners[1, 2], corners[2, 2]))
-            centre = (c0 + c1 + c2) / three
+            centre, size = face_ball(q, model.face_rest[f])
             scratch.face_centre[env, f] = centre
-            scratch.face_size[env, f] = wp.max(wp.length(c0 - centre), wp.max(
-                wp.length(c1 - centre), wp.length(c2 - centre)))
+            scratch.face_size[env, f] = size
 
     @wp.func
     def gather_faces(model: Model, scratch: Scratch, env: int, a: int, b: int, reach_: scalar,
@@ -190,10 +203,7 @@ def build(t) -> SimpleNamespace:
         for e in range(edges):
             b = model.edge_body[e]
             reach = model.contact_d_hat + scratch.body_margin[env, b]
-            end_a = world_point(scratch.q_n[env, b], model.edge_a[e])
-            end_b = world_point(scratch.q_n[env, b], model.edge_b[e])
-            size = half * wp.length(end_b - end_a) + model.edge_radius[e]
-            middle = half * (end_a + end_b)
+            middle, size = edge_ball(model, scratch.q_n[env, b], e)
             for s in range(statics_e):
                 start_s = model.static_edge_a[s]
                 along = model.static_edge_b[s] - start_s
@@ -209,16 +219,7 @@ def build(t) -> SimpleNamespace:
         for f in range(model.face_body.shape[0]):
             b = model.face_body[f]
             reach = model.contact_d_hat + scratch.body_margin[env, b]
-            corners = model.face_rest[f]
-            c0 = world_point(scratch.q_n[env, b], vec3(corners[0, 0], corners[1, 0],
-                                                       corners[2, 0]))
-            c1 = world_point(scratch.q_n[env, b], vec3(corners[0, 1], corners[1, 1],
-                                                       corners[2, 1]))
-            c2 = world_point(scratch.q_n[env, b], vec3(corners[0, 2], corners[1, 2],
-                                                       corners[2, 2]))
-            centre = (c0 + c1 + c2) / three
-            size = wp.max(wp.length(c0 - centre), wp.max(wp.length(c1 - centre),
-                                                         wp.length(c2 - centre)))
+            centre, size = face_ball(scratch.q_n[env, b], model.face_rest[f])
             for v in range(statics_v):
                 apart = (wp.length(centre - model.static_vertex[v]) - size
                          - model.static_vertex_radius[v])
@@ -492,6 +493,13 @@ def build(t) -> SimpleNamespace:
             f1_over_y = (two * eps - y) / (eps * eps)
         return f0, f1_over_y
 
+    @wp.func(inline=True)
+    def tangent_block(h11: scalar, h12: scalar, h22: scalar, a1: vec12, a2: vec12, b1: vec12,
+                      b2: vec12):
+        """[a₁ a₂] H [b₁ b₂]ᵀ for the symmetric 2×2 H = (h11 h12; h12 h22): a tangent-plane
+        Hessian mapped into one body's block (a = b) or two bodies' coupling."""
+        return wp.outer(h11 * a1 + h12 * a2, b1) + wp.outer(h12 * a1 + h22 * a2, b2)
+
     @wp.func
     def friction_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
                         env: int):
@@ -520,9 +528,11 @@ def build(t) -> SimpleNamespace:
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             force = scratch.friction_normal[env, p]
-            body, other = pair_bodies(model, p)
             weight = zero
+            body = int(0)
+            other = int(-1)
             if force > zero:
+                body, other = pair_bodies(model, p)
                 weight = pair_friction(model, p, body, other) * force
             if weight > zero:
                 count += 1
@@ -545,16 +555,13 @@ def build(t) -> SimpleNamespace:
                         h11 -= c * u1 * u1
                         h22 -= c * u2 * u2
                         h12 = -c * u1 * u2
-                    scratch.hessian[env, body] += (wp.outer(h11 * w1 + h12 * w2, w1)
-                                                   + wp.outer(h12 * w1 + h22 * w2, w2))
+                    scratch.hessian[env, body] += tangent_block(h11, h12, h22, w1, w2, w1, w2)
                     if wp.static(bodies):
                         if other >= 0:
-                            scratch.hessian[env, other] += (
-                                wp.outer(h11 * v1 + h12 * v2, v1)
-                                + wp.outer(h12 * v1 + h22 * v2, v2))
+                            scratch.hessian[env, other] += tangent_block(h11, h12, h22, v1, v2,
+                                                                         v1, v2)
                             couple(model, scratch, env, body, other,
-                                   wp.outer(h11 * w1 + h12 * w2, v1)
-                                   + wp.outer(h12 * w1 + h22 * w2, v2))
+                                   tangent_block(h11, h12, h22, w1, w2, v1, v2))
         return count
 
     @wp.func

@@ -83,7 +83,7 @@ class Stages:
 
     def __init__(self, scene, device: str = 'cpu'):
         self.host = build_model(scene)
-        self.t = step_kernels(scalar_of(scene.solver.precision), len(self.host.touch_a) > 0)
+        self.t = step_kernels(scalar_of(scene.solver.precision), self.host.has_body_pairs)
         self.device = device
         nb = self.host.body_count
         sizes = array_sizes(self.host, 1)

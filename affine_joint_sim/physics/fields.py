@@ -213,9 +213,10 @@ FIELDS = _fields('model', [
      'pair at the start of the step (0: no friction this step)'),
     ('normal_damping', 'scalar', ('env', 'pair'), 'kg', 'lagged c·dt of each pair: its damping '
      'c = 2ζ √(k m) [N·s/m] at the start of the step (0: none this step)'),
-    ('near_pairs', 'int32', ('env', 'near'), '-', 'the pairs evaluated this step, ascending: '
-     'those within d̂ + body_margin at q_n (the others stay beyond d̂); room for two lists, '
-     'the last step\'s and the next'),
+    ('near_pairs', 'int32', ('env', 'near'), '-', 'the pairs evaluated this step, the static '
+     'ones first and ascending: those within d̂ + body_margin at q_n (both bodies\' margins '
+     'for a pair of bodies; the others stay beyond d̂); room for two lists, the last step\'s '
+     'and the next'),
     ('near_count', 'int32', E, '-', 'how many near_pairs'),
     ('pair_mark', 'int32', ('env', 'pair'), '-', '1 while a pair is in the fresh near list '
      '(zero between steps)'),

@@ -56,6 +56,12 @@ class HostModel:
         return len(self.joint_parent)
 
     @property
+    def has_body_pairs(self) -> bool:
+        """Whether some free bodies may touch each other (the step kernel with pairs of bodies
+        and the coupled solve, ``kernels.step_kernels``)."""
+        return len(self.touch_a) > 0
+
+    @property
     def pair_count(self) -> int:
         """Contact pairs numbered (physics.fields ``pair``)."""
         return pair_total(vars(self))
