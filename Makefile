@@ -60,7 +60,8 @@ replay: venv
 
 # The README's pictures, drawn from bags recorded here (results/gallery/): the make-run demo,
 # the URDF arm with its gripper under the demo PD controller, the quadruped standing on the
-# ground under it, and a box sliding down a ramp onto the ground.
+# ground under it, a box sliding down a ramp onto the ground, 27 boxes tumbling into a bin and
+# the arm grasping a cube on a table under the demo controller's grasp script.
 GALLERY_RENDER := --fps 12 --width 640 --height 360
 gallery: venv
 	rm -rf results/gallery && mkdir -p results/gallery docs
@@ -80,6 +81,9 @@ gallery: venv
 	$(VENV)/bin/affine-joint-sim run --scene pile --mode fast --duration 2 --record results/gallery/pile
 	$(VENV)/bin/affine-joint-sim render results/gallery/pile --out docs/pile.gif $(GALLERY_RENDER) \
 	  --view=-60,65
+	$(VENV)/bin/affine-joint-sim demo --scene grasp --duration 3 --record results/gallery/grasp
+	$(VENV)/bin/affine-joint-sim render results/gallery/grasp --out docs/grasp.gif $(GALLERY_RENDER) \
+	  --view=-70,12
 
 # The linter (rules in ruff.toml) first: it takes well under a second.
 lint: venv

@@ -22,6 +22,7 @@ setup(
          + glob('msg_configs/*.json')),
         (share + '/msg_configs/scenes', glob('msg_configs/scenes/*.yaml')),
         (share + '/msg_configs/robots', glob('msg_configs/robots/*.urdf')),
+        (share + '/msg_configs/scripts', glob('msg_configs/scripts/*.yaml')),
     ],
     python_requires='>=3.12',
     install_requires=[

@@ -99,14 +99,16 @@ def _echo(args, ros_args) -> int:
 
 def _controller(args, ros_args) -> int:
     from affine_joint_sim.ros import controller
-    return controller.main(dict(args.target), args.kp, args.kd, args.effort_limit,
-                           args.namespace, interface=args.interface)
+    if not args.target and args.script is None:
+        raise ValueError('controller: give --target JOINT=RAD (repeatable) or --script')
+    return controller.main(dict(args.target or ()), args.kp, args.kd, args.effort_limit,
+                           args.namespace, interface=args.interface, script=args.script)
 
 
 def _demo(args, ros_args) -> int:
     from affine_joint_sim.ros import demo
     return demo.run_demo(args.scene, dict(args.target or ()), args.duration, args.mode, args.record,
-                         args.kp, args.kd, interface=args.interface)
+                         args.kp, args.kd, interface=args.interface, script=args.script)
 
 
 def _replay(args, ros_args) -> int:
@@ -197,6 +199,14 @@ def _add_namespace(parser):
     parser.add_argument('--namespace', default='', help='namespace of the node (default: /)')
 
 
+def _add_script(parser, default=''):
+    from affine_joint_sim.control_script import packaged_scripts
+    parser.add_argument('--script', default=None, metavar='FILE|NAME',
+                        help='a control script: targets that follow keyframes in simulated '
+                             'time, with per-joint gains (replaces --target, --kp, --kd; '
+                             f'packaged: {", ".join(packaged_scripts())}){default}')
+
+
 def _add_gains(parser):
     parser.add_argument('--kp', type=float, default=100.0, help='P gain [N·m/rad]')
     parser.add_argument('--kd', type=float, default=10.0, help='D gain [N·m·s/rad]')
@@ -236,8 +246,9 @@ def build_parser() -> argparse.ArgumentParser:
     controller = commands.add_parser(
         'controller', help='demo PD controller',
         description='Drive joints to target angles through joint_commands until Ctrl-C.')
-    controller.add_argument('--target', type=_assignment, action='append', required=True,
+    controller.add_argument('--target', type=_assignment, action='append',
                             metavar='JOINT=RAD', help='target angle (repeatable)')
+    _add_script(controller)
     _add_gains(controller)
     controller.add_argument('--effort-limit', type=float, default=float('inf'),
                             help='largest |torque| sent [N·m]')
@@ -255,6 +266,8 @@ def build_parser() -> argparse.ArgumentParser:
                       default=None, metavar='JOINT=RAD', help='target angle (repeatable; '
                       'default: shoulder=1.0 on the pendulum, else every moving joint\'s '
                       'initial position, holding the start pose)')
+    _add_script(demo, ' (default: the packaged script named as the scene, if any, when no '
+                '--target is given)')
     demo.add_argument('--duration', type=_positive, default=3.0,
                       help='simulated seconds (> 0)')
     demo.add_argument('--mode', default='lockstep', choices=MODES,

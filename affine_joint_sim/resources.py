@@ -3,7 +3,7 @@
 import sys
 from pathlib import Path
 
-__all__ = ['config_dir', 'scene_path', 'packaged_scenes']
+__all__ = ['config_dir', 'scene_path', 'packaged_scenes', 'packaged_file', 'packaged_names']
 
 _SOURCE = Path(__file__).resolve().parents[1] / 'msg_configs'
 _SHARE = Path(sys.prefix) / 'share' / 'affine_joint_sim' / 'msg_configs'
@@ -14,22 +14,34 @@ def config_dir() -> Path:
     return _SOURCE if _SOURCE.is_dir() else _SHARE
 
 
-def scene_path(name_or_path: str) -> Path:
-    """A scene file: an existing path as given, else a packaged scene by name (``arm``).
+def packaged_file(name_or_path, folder: str, what: str) -> Path:
+    """A file: an existing path as given, else the packaged ``<folder>/<name>.yaml``.
 
     Raises:
-        FileNotFoundError: neither exists; the message lists the packaged scenes.
+        FileNotFoundError: neither exists; the message names the ``what`` and lists the
+            packaged ones.
     """
     path = Path(name_or_path)
     if path.is_file():
         return path
-    packaged = config_dir() / 'scenes' / f'{name_or_path}.yaml'
+    packaged = config_dir() / folder / f'{name_or_path}.yaml'
     if packaged.is_file():
         return packaged
-    raise FileNotFoundError(f'scene {name_or_path!r} is neither a file nor a packaged scene '
-                            f'({", ".join(packaged_scenes())})')
+    raise FileNotFoundError(f'{what} {str(name_or_path)!r} is neither a file nor a packaged '
+                            f'{what} ({", ".join(packaged_names(folder)) or "none"})')
+
+
+def packaged_names(folder: str) -> list[str]:
+    """Names of the packaged YAML files in ``folder`` of msg_configs."""
+    return sorted(p.stem for p in (config_dir() / folder).glob('*.yaml'))
+
+
+def scene_path(name_or_path: str) -> Path:
+    """A scene file: an existing path as given, else a packaged scene by name (``arm``);
+    FileNotFoundError listing the packaged scenes."""
+    return packaged_file(name_or_path, 'scenes', 'scene')
 
 
 def packaged_scenes() -> list[str]:
     """Names of the packaged scenes."""
-    return sorted(p.stem for p in (config_dir() / 'scenes').glob('*.yaml'))
+    return packaged_names('scenes')

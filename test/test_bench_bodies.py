@@ -18,22 +18,24 @@ def test_a_quick_run_writes_every_scene_and_nothing_interpenetrates(tmp_path):
         rows = list(csv.DictReader(stream))
     assert [r['scene'] for r in rows] == (['collision', 'stack of 3']
                                           + [f'pile of {n}' for n in bodies.QUICK.piles]
-                                          + ['grasp'])
+                                          + ['gripper', 'arm6_gripper grasp'])
     assert {'us_per_step', 'realtime', 'newton', 'inner', 'contacts', 'min_distance',
             'error', 'mujoco_us', 'mujoco_min_distance', 'mujoco_error'} <= set(rows[0])
     for row in rows:
         assert float(row['min_distance']) > 0.0, row['scene']
         assert float(row['newton']) >= 1.0
-        assert (row['mujoco_us'] != '') == (mujoco_urdf.available() and row['scene'] != 'grasp')
+        assert (row['mujoco_us'] != '') == (mujoco_urdf.available()
+                                            and row['scene'] != 'gripper')
     errors = {r['scene']: float(r['error']) for r in rows if r['error']}
     assert errors['collision'] < 1e-9                   # momentum, kg·m/s
-    assert errors['grasp'] < 3e-3                       # the box rose 5 cm with the hand
+    assert errors['gripper'] < 3e-3                     # the box rose 5 cm with the hand
+    assert abs(errors['arm6_gripper grasp']) < 2e-3     # the cube's slip in the arm's hand
     assert 'Cost growth' not in (tmp_path / 'bodies.md').read_text()    # one pile: no fit
 
 
 def test_the_growth_exponent_fits_a_power_law():
     rows = [{'scene': 'pile of 8', 'contacts': 10, 'us_per_step': 100.0},
             {'scene': 'pile of 27', 'contacts': 100, 'us_per_step': 3162.2776601683795},
-            {'scene': 'grasp', 'contacts': 8, 'us_per_step': 1.0}]
+            {'scene': 'gripper', 'contacts': 8, 'us_per_step': 1.0}]
     assert bodies.growth(rows) == pytest.approx(1.5)
     assert bodies.growth(rows[:1]) is None

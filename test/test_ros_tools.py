@@ -77,6 +77,20 @@ def test_demo_closes_the_loop_and_reports(tmp_path, interface):
     assert target == 0.8 and abs(error + 0.035) < 0.01, out
 
 
+def test_demo_runs_the_grasp_script_of_the_grasp_scene():
+    """``demo --scene grasp`` runs the packaged grasp script: at 0.2 s the arm still holds its
+    start pose (the descent starts at 0.3 s) with the script's targets and gains."""
+    done = cli('demo', '--scene', 'grasp', '--duration', 0.2, timeout=180)
+    assert done.returncode == 0, done.stdout + done.stderr
+    out = done.stdout
+    assert 'PD controller (script grasp)' in out and '200 steps, 0.200 s simulated' in out, out
+    assert 'PD controller (scripted targets and gains)' in out, out
+    rows = {line.split()[0]: line.split()[1:] for line in out.splitlines()
+            if line.startswith(('shoulder_lift ', 'left_finger_joint '))}
+    assert float(rows['shoulder_lift'][0]) == 0.3878 and float(rows['left_finger_joint'][0]) == 0.03
+    assert abs(float(rows['shoulder_lift'][2])) < 0.01, out    # PD sag against gravity
+
+
 def _children(pid):
     return [int(c) for c in Path(f'/proc/{pid}/task/{pid}/children').read_text().split()]
 

@@ -770,3 +770,22 @@ def test_an_unexpanded_xacro_gets_the_xacro_hint_first(tmp_path):
     for name in ('robot.urdf.xacro', 'robot.xacro'):
         with pytest.raises(SceneError, match='contains xacro macros: expand it first'):
             Scene.load(write(tmp_path, text, name))
+
+
+def test_objects_stand_beside_the_robot_with_a_frame_a_visual_and_contact():
+    """``objects`` add bodies of their own beside a URDF robot: where they are placed, drawn as
+    their shapes, a frame of their name (body_poses), touching the links' <collision> unless
+    excluded by name; an object named as a link is refused naming both."""
+    box = {'name': 'crate', 'mass': 0.5, 'shape': {'box': [0.1, 0.1, 0.1]},
+           'position': [0.6, 0.0, 0.05], 'collision': 'shape'}
+    scene = Scene.from_urdf(ROBOTS / 'arm6_gripper.urdf', objects=[box], ground={'height': 0.0},
+                            contact={'exclude': [['crate', 'forearm']]})
+    crate = scene.bodies[scene.body_index('crate')]
+    assert crate.position == (0.6, 0.0, 0.05) and not crate.fixed
+    assert any(v.body == 'crate' and v.geometry.box == (0.1, 0.1, 0.1) for v in scene.visuals)
+    assert [f.body for f in scene.frames if f.name == 'crate'] == ['crate']
+    assert ('crate', 'forearm') in scene.contact.exclude
+    assert scene.bodies[scene.body_index('left_finger')].collision      # links touch it
+    with pytest.raises(SceneError, match=r"objects\[0\]\.name: 'forearm' is a link of the robot"):
+        Scene.from_urdf(ROBOTS / 'arm6_gripper.urdf', objects=[{**box, 'name': 'forearm'}],
+                        ground={'height': 0.0})

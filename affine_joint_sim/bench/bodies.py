@@ -6,9 +6,10 @@ integrator (BDF2): two 0.1 m boxes colliding in zero gravity (1 kg at 1 m/s agai
 (the top box's drift over 3 s, against 0), piles of N = 8, 27 and 64 boxes (0.08 m, 0.5 kg)
 dropped into a bin (ground and four static walls) settling over 2 s, and a two-finger gripper
 lifting a 0.1 kg box 5 cm, squeezed with 1.5 N per finger (μ 0.5: 2 μ F > m g) at dt 1e-3
-(the box's rise, against 0.05 m). With the extra ``compare``, MuJoCo (default Euler, its
-default soft contact, μ of every geom 0.5) runs the collision, the stack and the piles from
-the same boxes.
+(the box's rise, against 0.05 m), and the shipped arm's grasp (``bench.grasp``: the
+cube's slip in the hand over a 12 cm lift, against 0). With the extra ``compare``, MuJoCo
+(default Euler, its default soft contact, μ of every geom 0.5) runs the collision, the stack
+and the piles from the same boxes, and the arm's grasp from the same URDF.
 
 Per scene: µs/step (mean; the piles' over their last second), Newton and inner (conjugate
 gradient) iterations per step, contacts at the end, the nearest distance (ours must stay > 0;
@@ -25,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from affine_joint_sim.bench import grasp
 from affine_joint_sim.bench.report import Column, markdown_table, publish
 from affine_joint_sim.bench.section import add_section
 
@@ -140,7 +142,7 @@ def _ours(name: str, spec: dict, duration: float, timed_from: float) -> dict:
     start_q, start_p = sim.body_q.copy(), _momentum(masses, sim.body_qdot)
     times, newton, inner, nearest, drift = [], [], [], math.inf, 0.0
     for k in range(steps):
-        if name == 'grasp':
+        if name == 'gripper':
             sim.set_target('lift', lift_target(k * spec['dt']))
         began = time.perf_counter()
         sim.step()
@@ -155,7 +157,7 @@ def _ours(name: str, spec: dict, duration: float, timed_from: float) -> dict:
     q = sim.body_q
     error = {'collision': drift,
              'stack': float(np.hypot(*(q[-1, :2] - start_q[-1, :2]))),
-             'grasp': abs(q[-1, 2] - start_q[-1, 2] - 0.05)}.get(name.split()[0])
+             'gripper': abs(q[-1, 2] - start_q[-1, 2] - 0.05)}.get(name.split()[0])
     return {'us_per_step': 1e6 * float(np.mean(times)), 'newton': float(np.mean(newton)),
             'inner': float(np.mean(inner)), 'contacts': stats['contacts'],
             'min_distance': nearest, 'error': error}
@@ -220,7 +222,7 @@ def _cases(settings: Settings) -> list[tuple]:
              ('stack of 3', stack_scene(), 3.0, 0.0, 'top drift [m]')]
     cases += [(f'pile of {n}', pile_scene(n), settings.pile_duration,
                settings.pile_duration / 2.0, '—') for n in settings.piles]
-    cases.append(('grasp', gripper_scene(), 1.0, 0.0, 'rise error [m]'))
+    cases.append(('gripper', gripper_scene(), 1.0, 0.0, 'rise error [m]'))
     return cases
 
 
@@ -240,6 +242,23 @@ COLUMNS = [
     Column('error', 'error', '{:.1e}'),
     Column('mujoco_error', 'MuJoCo error', '{:.1e}'),
 ]
+
+
+def _arm_grasp(repeats: int, peer: bool) -> dict:
+    """The row of the shipped arm's grasp (``bench.grasp``): medians of ``repeats`` runs."""
+    runs = [grasp.ours() for _ in range(repeats)]
+    row = dict(runs[-1], us_per_step=statistics.median(r['us_per_step'] for r in runs),
+               scene='arm6_gripper grasp',
+               quantity=f'slip over a {runs[-1]["lift"]:.3f} m lift [m]',
+               mujoco_us=None, mujoco_contacts=None, mujoco_min_distance=None,
+               mujoco_error=None)
+    row['realtime'] = row['dt'] / (1e-6 * row['us_per_step'])
+    if peer:
+        theirs = [grasp.mujoco() for _ in range(repeats)]
+        row.update(theirs[-1], mujoco_us=statistics.median(r['mujoco_us'] for r in theirs))
+        row['quantity'] += f' (MuJoCo lifts it {row.pop("mujoco_lift"):.3f} m)'
+    row.pop('lift')
+    return row
 
 
 def growth(rows: list[dict]) -> float | None:
@@ -266,10 +285,11 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
         row['realtime'] = spec['dt'] / (1e-6 * row['us_per_step'])
         row.update(mujoco_us=None, mujoco_contacts=None, mujoco_min_distance=None,
                    mujoco_error=None)
-        if peer and name != 'grasp':
+        if peer and name != 'gripper':
             theirs = [_mujoco(name, spec, duration, timed_from) for _ in range(settings.repeats)]
             row.update(theirs[-1], mujoco_us=statistics.median(r['mujoco_us'] for r in theirs))
         rows.append(row)
+    rows.append(_arm_grasp(settings.repeats, peer))
     fit = growth(rows)
     text = ('## Bodies touching each other: float64, one CPU core\n\n'
             + ('' if peer else "MuJoCo is not installed (extra 'compare'): no MuJoCo "

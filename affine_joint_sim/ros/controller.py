@@ -1,17 +1,18 @@
 """A demo PD controller in its own process: joint targets → torques over ``joint_commands``.
 
-On every ``joint_states`` message it answers with one command, the torques
-τ = kp (θ* − θ) − kd ω for the joints it has targets for, so against a ``lockstep`` node the
-closed loop is deterministic. It answers each state once: a copy of the state it has just
-answered (the node republishes a waiting state every 0.2 s, and a busy process can find the
-original and a copy queued together) is skipped: the node counts a second answer once, but an
-unstamped one (an array) that arrives after the step would answer the node's next state. The
-command goes out on ``joint_commands`` (a JointState: names and efforts, stamped with the
-state it answers) or, as ros2_control's JointGroupEffortController does, on
-``effort_commands`` (a Float64MultiArray: one effort per joint of ``joint_states``, 0 for
-joints without a target; the node's ``command_joints`` default has that order). Being PD
-(no gravity model, no integral term), it settles ``m g l sin θ* / kp`` short of a target held
-against gravity.
+On every ``joint_states`` message it answers with one command, the torques τ = kp (θ* − θ) − kd
+ω for the joints it has targets for, so against a ``lockstep`` node the closed loop is
+deterministic. The targets are fixed, or follow a control script's keyframes in the state's
+simulated time, each joint with the script's gains (``control_script``). It answers each state
+once: a copy of the state it has just answered (the node republishes a waiting state every 0.2
+s, and a busy process can find the original and a copy queued together) is skipped: the node
+counts a second answer once, but an unstamped one (an array) that arrives after the step would
+answer the node's next state. The command goes out on ``joint_commands`` (a JointState: names
+and efforts, stamped with the state it answers) or, as ros2_control's
+JointGroupEffortController does, on ``effort_commands`` (a Float64MultiArray: one effort per
+joint of ``joint_states``, 0 for joints without a target; the node's ``command_joints`` default
+has that order). Being PD (no gravity model, no integral term), it settles ``m g l sin θ* /
+kp`` short of a target held against gravity.
 """
 
 import time
@@ -22,6 +23,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
+from affine_joint_sim.control_script import ControlScript, pd_torques
 from affine_joint_sim.ros.topics import load_topics
 
 __all__ = ['PDController', 'main', 'DUPLICATE_WINDOW']
@@ -36,19 +38,24 @@ class PDController(Node):
     """PD control of some joints of the simulator node.
 
     Args:
-        targets: target angle per joint [rad].
+        targets: target angle per joint [rad] (ignored when ``script`` is given).
         kp: proportional gain [N·m/rad].
         kd: derivative gain [N·m·s/rad].
         effort_limit: largest |τ| sent [N·m].
         clock: wall clock in seconds (monotonic); injectable for tests.
+        script: a ControlScript whose targets and gains replace ``targets``, ``kp``, ``kd``.
         **node_kwargs: passed to ``rclpy.node.Node`` (``namespace=``, ``context=``).
     """
 
-    def __init__(self, targets: dict[str, float], kp: float = 100.0, kd: float = 10.0,
-                 effort_limit: float = np.inf, interface: str = 'joint_commands',
-                 clock=time.monotonic, **node_kwargs):
+    def __init__(self, targets: dict[str, float] | None = None, kp: float = 100.0,
+                 kd: float = 10.0, effort_limit: float = np.inf,
+                 interface: str = 'joint_commands', clock=time.monotonic,
+                 script: ControlScript | None = None, **node_kwargs):
         super().__init__('pd_controller', **node_kwargs)
-        self.targets, self.kp, self.kd, self.effort_limit = dict(targets), kp, kd, effort_limit
+        self.script = script or ControlScript.hold(targets, kp, kd)
+        self.scripted = script is not None
+        self.targets = dict.fromkeys(self.script.joints, 0.0)     # the last state's targets
+        self.effort_limit = effort_limit
         self.interface = interface
         topics = load_topics()
         commands = topics[interface]
@@ -76,11 +83,10 @@ class PDController(Node):
                                     throttle_duration_sec=5.0)
             return
         rows = [index[j] for j in self.targets]
-        angle = np.asarray(msg.position)[rows]
-        velocity = np.asarray(msg.velocity)[rows]
-        target = np.fromiter(self.targets.values(), float)
-        tau = np.clip(self.kp * (target - angle) - self.kd * velocity,
-                      -self.effort_limit, self.effort_limit)
+        target = self.script.targets_at(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9)
+        self.targets = dict(zip(self.targets, target.tolist()))
+        tau = pd_torques(self.script.kp, self.script.kd, target, np.asarray(msg.position)[rows],
+                         np.asarray(msg.velocity)[rows], self.effort_limit)
         if self.interface == 'joint_commands':
             self._command.header.stamp = msg.header.stamp
             self._command.effort = tau.tobytes()
@@ -102,7 +108,9 @@ class PDController(Node):
         width = max([12, *map(len, self.targets)])    # the joint column fits every name
         copies = (f' ({self.copies_skipped} copies of an answered state skipped)'
                   if self.copies_skipped else '')
-        lines = [f'PD controller (kp {self.kp:g}, kd {self.kd:g}): {self.states_received} states '
+        gains = ('scripted targets and gains' if self.scripted else
+                 f'kp {self.script.kp[0]:g}, kd {self.script.kd[0]:g}')
+        lines = [f'PD controller ({gains}): {self.states_received} states '
                  f'answered{copies}, last at t = {t:.3f} s',
                  f'{"joint":<{width}} {"target [rad]":>13} {"final [rad]":>13} '
                  f'{"error [rad]":>13}']
@@ -113,11 +121,14 @@ class PDController(Node):
 
 
 def main(targets: dict[str, float], kp: float, kd: float, effort_limit: float = np.inf,
-         namespace: str = '', args=None, interface: str = 'joint_commands') -> int:
-    """Run the controller until SIGINT/SIGTERM, then print its report on stdout."""
+         namespace: str = '', args=None, interface: str = 'joint_commands',
+         script: str | None = None) -> int:
+    """Run the controller until SIGINT/SIGTERM, then print its report on stdout; ``script``:
+    a control script's file or packaged name, run instead of ``targets``."""
+    loaded = ControlScript.load(script) if script is not None else None
     rclpy.init(args=args)
     node = PDController(targets, kp, kd, effort_limit, interface=interface,
-                        namespace=namespace)
+                        namespace=namespace, script=loaded)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -64,23 +64,52 @@ def _stop(process: subprocess.Popen) -> str:
     return process.communicate()[0] or ''
 
 
+def _script(scene: str, targets: dict[str, float], script: str | None) -> str | None:
+    """The control script the controller runs: ``script``, else (no ``targets`` either) the
+    packaged script named as the scene, if any; ValueError for ``script`` beside ``targets``
+    or naming a joint the scene lacks."""
+    from affine_joint_sim.control_script import ControlScript, packaged_scripts
+    from affine_joint_sim.resources import scene_path
+    if script is not None and targets:
+        raise ValueError('--script replaces --target: give one of them')
+    if script is None and not targets and Path(scene).stem in packaged_scripts() \
+            and not Path(scene).is_file():
+        script = Path(scene).stem
+    if script is None:
+        return None
+    from affine_joint_sim.scene import Scene
+    moving = [j.name for j in Scene.load(scene_path(scene)).joints if j.type != 'fixed']
+    wrong = [joint for joint in ControlScript.load(script).joints if joint not in moving]
+    if wrong:
+        raise ValueError(f'--script {script}: {", ".join(wrong)} not a moving joint of scene '
+                         f'{scene!r} (joints: {", ".join(moving) or "none"})')
+    return script
+
+
 def run_demo(scene: str, targets: dict[str, float], duration: float, mode: str,
              record: Path | None, kp: float, kd: float,
-             interface: str = 'joint_commands') -> int:
+             interface: str = 'joint_commands', script: str | None = None) -> int:
     """Run node + controller; print final angles vs targets, steps/s, real-time factor, bag.
 
-    SIGINT/SIGTERM (Ctrl-C) stop both children, whose reports are still printed; neither is
-    left running. Returns the node's exit status (2: a target that is not a joint).
+    ``script``: a control script (file or packaged name) the controller runs instead of
+    ``targets``. SIGINT/SIGTERM (Ctrl-C) stop both children, whose reports are still printed;
+    neither is left running. Returns the node's exit status (2: a target that is not a joint).
     """
-    targets = _targets(scene, targets)
-    target_args = [a for joint, angle in targets.items() for a in ('--target', f'{joint}={angle}')]
+    script = _script(scene, targets, script)
+    if script is not None:
+        target_args, what = ['--script', script], f'script {script}'
+    else:
+        targets = _targets(scene, targets)
+        target_args = [a for joint, angle in targets.items()
+                       for a in ('--target', f'{joint}={angle}')]
+        what = f'targets {targets}'
     node_args = ['run', '--scene', scene, '--mode', mode, '--duration', duration]
     if record is not None:
         node_args += ['--record', record]
     where = ' on loopback' if os.environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE') == 'LOCALHOST' \
         else ''
     print(f'demo: node ({scene}, {mode}, {duration:g} s) and PD controller '
-          f'(targets {targets}) over DDS{where} ...', flush=True)
+          f'({what}) over DDS{where} ...', flush=True)
     start = time.monotonic()
     stop = []
 

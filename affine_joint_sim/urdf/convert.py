@@ -34,8 +34,8 @@ from affine_joint_sim.contact_schema import Contact, Ground, Origin
 from affine_joint_sim.physics.mass import inertia_mass_properties
 from affine_joint_sim.rotations import (axis_rotation, pose_matrix, quaternion_from_matrix,
                                         rpy_from_matrix)
-from affine_joint_sim.scene import (Number, SceneError, SceneName, SceneSettings, Sensor,
-                                    validation_report)
+from affine_joint_sim.scene import (Body, Number, SceneError, SceneName, SceneSettings,
+                                    Sensor, validation_report)
 from affine_joint_sim.sim_warnings import SimulationWarning
 from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
                                            principal_frame)
@@ -71,6 +71,10 @@ class UrdfOptions(SceneSettings):
     ground: Ground | None = None
     sensors: list[Sensor] = []          # as a scene's; body: a link name (README.md#sensors)
     srdf: str | None = None             # its <disable_collisions> join contact.exclude
+    # bodies beside the robot, each on its own (a fixed table, a free box to grasp), as a
+    # scene's ``bodies`` entries in the world frame; drawn as their shapes, each with a frame
+    # of its name at its origin (body_poses)
+    objects: list[Body] = []
 
 
 def urdf_scene_data(path, overrides: dict, source: str) -> tuple[dict, str]:
@@ -414,23 +418,31 @@ class _Converter:
         touching = self.options.contact is not None or self.options.ground is not None
         if touching:
             self._add_collisions(bodies)
+        for k, item in enumerate(self.options.objects):
+            if item.name in self.body_of or item.name in self.body_of.values():
+                self._fail(f'objects[{k}].name: {item.name!r} is a link of the robot (an object '
+                           'needs a name of its own)')
+        objects = [o.model_dump(mode='json', exclude_none=True) for o in self.options.objects]
         joints = [self._joint(j) for j in self.robot.joints if not self._welded(j)]
         joints = self._overridden([j for j in joints if j is not None])
         options = self.options
         visuals = link_visuals(self.robot, self.local, self.body_of, options.package_paths,
                                self.path.parent, {b['name']: _size(b) for b in bodies},
                                lambda message: _warn(f'{self.path}: {message}'))
+        visuals += [{'body': o['name'], 'geometry': o['shape']} for o in objects if 'shape' in o]
         settings = options.model_dump(include={*SceneSettings.model_fields, 'contact',
                                                'ground', 'sensors'}, exclude_none=True)
         settings['name'] = options.name or self.robot.name or self.path.stem
         if touching:
             settings['contact'] = {**settings.get('contact', {}), 'exclude': self._excluded()}
-        return {**settings, 'bodies': bodies, 'joints': joints, 'frames': frames,
+        frames += [{'name': o['name'], 'body': o['name']} for o in objects]   # at its origin
+        return {**settings, 'bodies': bodies + objects, 'joints': joints, 'frames': frames,
                 'visuals': visuals}
 
     def _excluded(self) -> list[list[str]]:
-        """contact.exclude and the SRDF's <disable_collisions> as pairs of body names (two
-        links merged into one body need none); SceneError naming an unknown link."""
+        """contact.exclude (link and object names) and the SRDF's <disable_collisions> as
+        pairs of body names (two links merged into one body need none); SceneError naming an
+        unknown link."""
         named = [(pair, f'contact.exclude[{k}]') for k, pair in
                  enumerate(self.options.contact.exclude if self.options.contact else [])]
         if self.options.srdf is not None:
@@ -441,12 +453,14 @@ class _Converter:
                                  'searched)')
             named += [((pair.link1, pair.link2), f'{found}:{pair.line}: <disable_collisions>')
                       for pair in disabled_pairs(found)]
+        body_of = {**self.body_of, **{o.name: o.name for o in self.options.objects}}
         out = []
         for pair, where in named:
             for link in pair:
-                if link not in self.body_of:
-                    raise SceneError(f'{where}: unknown link {link!r} of {self.path}')
-            bodies = [self.body_of[link] for link in pair]
+                if link not in body_of:
+                    what = 'link or object' if where.startswith('contact') else 'link'
+                    raise SceneError(f'{where}: unknown {what} {link!r} of {self.path}')
+            bodies = [body_of[link] for link in pair]
             if bodies[0] != bodies[1] and bodies not in out:
                 out.append(bodies)
         return out
