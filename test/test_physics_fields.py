@@ -11,8 +11,8 @@ from test_joints import every_joint_type
 
 SIZES = {'env': 3, 'chunk': 2, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 3,
          'problem': 6, 'point': 6, 'plane': 2, 'pair': 12, 'edge': 4, 'face': 2,
-         'static_edge': 3, 'static_vertex': 2, 'near': 16, 'static_pair': 10, 'touch': 2,
-         'body_end': 6}
+         'static_edge': 3, 'static_vertex': 2, 'surface': 1, 'near': 16, 'static_pair': 10,
+         'touch': 2, 'body_end': 6}
 
 
 @pytest.mark.parametrize('scalar', [wp.float64, wp.float32])
@@ -40,7 +40,7 @@ def test_the_host_model_carries_exactly_the_model_fields_with_their_shapes():
     host = build_model(scene)
     sizes = dict(SIZES, body=len(scene.bodies), joint=len(scene.joints),
                  free=int(np.sum(host.body_fixed == 0)), point=0, plane=0, shape=0,
-                 pair=0, edge=0, face=0, static_edge=0, static_vertex=0, static_pair=0,
+                 pair=0, edge=0, face=0, static_edge=0, static_vertex=0, surface=0, static_pair=0,
                  touch=0, body_end=len(scene.bodies) + 1)  # no contact
     for f in fields_of('model'):
         value = np.asarray(getattr(host, f.name))

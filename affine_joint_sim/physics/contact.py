@@ -104,6 +104,13 @@ def build(t) -> SimpleNamespace:
         return half * (end_a + end_b), half * wp.length(end_b - end_a) + model.edge_radius[e]
 
     @wp.func(inline=True)
+    def near_surface(model: Model, g: int, centre: vec3, size: scalar):
+        """A lower bound [m] of the gap between a sphere (``centre``, radius ``size``) and
+        static surface g's edges and vertices: the distance between it and their bounding
+        sphere."""
+        return wp.length(centre - model.surface_centre[g]) - size - model.surface_radius[g]
+
+    @wp.func(inline=True)
     def face_ball(q: vec12, corners: mat33):
         """(centroid [m], its farthest corner's distance [m]) of the triangle with rest corners
         ``corners`` (columns) on a body at state q: a sphere holding it."""
@@ -185,7 +192,8 @@ def build(t) -> SimpleNamespace:
         near_pairs from index ``start``; returns how many. Edges and faces are found edge by
         edge and face by face: a pair is not evaluated where the moving side's bounding
         sphere at q_n (about its midpoint or centroid) is farther from the static edge or
-        vertex."""
+        vertex, nor a static surface's pairs where it is farther from the surface's bounding
+        sphere (``near_surface``)."""
         at = start
         first = point_pairs(model)
         things = statics(model)
@@ -200,32 +208,45 @@ def build(t) -> SimpleNamespace:
                         at += 1
         statics_e = model.static_edge_a.shape[0]
         edges = model.edge_body.shape[0]
+        surfaces = model.surface_radius.shape[0]
         for e in range(edges):
             b = model.edge_body[e]
             reach = model.contact_d_hat + scratch.body_margin[env, b]
             middle, size = edge_ball(model, scratch.q_n[env, b], e)
-            for s in range(statics_e):
-                start_s = model.static_edge_a[s]
-                along = model.static_edge_b[s] - start_s
-                t = zero
-                if wp.dot(along, along) > zero:
-                    t = wp.clamp(wp.dot(middle - start_s, along) / wp.dot(along, along), zero,
-                                 one)
-                apart = (wp.length(middle - start_s - t * along) - size
-                         - model.static_edge_radius[s])
-                if apart < reach:
-                    at = add_near(model, scratch, env, first + e * statics_e + s, reach, at)
+            s0 = int(0)
+            for g in range(surfaces):
+                s1 = model.surface_edge_end[g]
+                if near_surface(model, g, middle, size) < reach:
+                    for s in range(s0, s1):
+                        start_s = model.static_edge_a[s]
+                        along = model.static_edge_b[s] - start_s
+                        t = zero
+                        if wp.dot(along, along) > zero:
+                            t = wp.clamp(wp.dot(middle - start_s, along)
+                                         / wp.dot(along, along), zero, one)
+                        apart = (wp.length(middle - start_s - t * along) - size
+                                 - model.static_edge_radius[s])
+                        if apart < reach:
+                            at = add_near(model, scratch, env, first + e * statics_e + s,
+                                          reach, at)
+                s0 = s1
         statics_v = model.static_vertex.shape[0]
         for f in range(model.face_body.shape[0]):
             b = model.face_body[f]
             reach = model.contact_d_hat + scratch.body_margin[env, b]
             centre, size = face_ball(scratch.q_n[env, b], model.face_rest[f])
-            for v in range(statics_v):
-                apart = (wp.length(centre - model.static_vertex[v]) - size
-                         - model.static_vertex_radius[v])
-                if apart < reach:
-                    at = add_near(model, scratch, env,
-                                  first + edges * statics_e + f * statics_v + v, reach, at)
+            v0 = int(0)
+            for g in range(surfaces):
+                v1 = model.surface_vertex_end[g]
+                if near_surface(model, g, centre, size) < reach:
+                    for v in range(v0, v1):
+                        apart = (wp.length(centre - model.static_vertex[v]) - size
+                                 - model.static_vertex_radius[v])
+                        if apart < reach:
+                            at = add_near(model, scratch, env,
+                                          first + edges * statics_e + f * statics_v + v, reach,
+                                          at)
+                v0 = v1
         if wp.static(bodies):
             at = gather_bodies(model, scratch, env, at)
         return at - start

@@ -230,12 +230,19 @@ class _Moving:
                     face_rest=np.array(self.faces, dtype=np.float64).reshape(-1, 3, 3))
 
 
+# relative growth of a static surface's bounding sphere: its test must never skip a pair
+# that the exact test of one of its edges or vertices would list, whatever the rounding
+SURFACE_SLACK = 1.0e-5
+
+
 class _Fixed:
-    """The static shapes' edges and vertices, with the fixed body owning each."""
+    """The static shapes' edges and vertices, with the fixed body owning each, and a bounding
+    sphere of each surface's (the broad phase skips a surface far from a moving edge or face)."""
 
     def __init__(self, surfaces, owners):
         self.edges, self.edge_radius, self.edge_owner = [], [], []
         self.vertices, self.vertex_radius, self.vertex_owner = [], [], []
+        self.centres, self.radii, self.edge_ends, self.vertex_ends = [], [], [], []
         for surface, owner in zip(surfaces, owners):
             for a, b in surface.edges:
                 self.edges.append((surface.vertices[a], surface.vertices[b]))
@@ -245,13 +252,24 @@ class _Fixed:
                 self.vertices.append(vertex)
                 self.vertex_radius.append(surface.radius)
                 self.vertex_owner.append(owner)
+            corners = np.asarray(surface.vertices, dtype=np.float64).reshape(-1, 3)
+            centre = 0.5 * (corners.min(axis=0) + corners.max(axis=0))
+            radius = max(pm.norm(c - centre) for c in corners) + surface.radius
+            self.centres.append(centre)
+            self.radii.append(radius + SURFACE_SLACK * (radius + pm.norm(centre)))
+            self.edge_ends.append(len(self.edges))
+            self.vertex_ends.append(len(self.vertices))
 
     def arrays(self) -> dict:
         ends = np.array(self.edges, dtype=np.float64).reshape(-1, 2, 3)
         return dict(static_edge_a=ends[:, 0], static_edge_b=ends[:, 1],
                     static_edge_radius=np.array(self.edge_radius, dtype=np.float64),
                     static_vertex=np.array(self.vertices, dtype=np.float64).reshape(-1, 3),
-                    static_vertex_radius=np.array(self.vertex_radius, dtype=np.float64))
+                    static_vertex_radius=np.array(self.vertex_radius, dtype=np.float64),
+                    surface_centre=np.array(self.centres, dtype=np.float64).reshape(-1, 3),
+                    surface_radius=np.array(self.radii, dtype=np.float64),
+                    surface_edge_end=np.array(self.edge_ends, dtype=np.int32),
+                    surface_vertex_end=np.array(self.vertex_ends, dtype=np.int32))
 
 
 def _refuse_touching(scene, q0, arrays, names) -> None:

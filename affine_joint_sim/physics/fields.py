@@ -147,6 +147,13 @@ FIELDS = _fields('model', [
     ('static_edge_radius', 'scalar', ('static_edge',), 'm', 'its radius'),
     ('static_vertex', 'vec3', ('static_vertex',), 'm', 'each static vertex, world'),
     ('static_vertex_radius', 'scalar', ('static_vertex',), 'm', 'its radius'),
+    ('surface_centre', 'vec3', ('surface',), 'm', 'centre of a sphere holding a static surface '
+     '(a fixed body\'s convex geometry or mesh), world'),
+    ('surface_radius', 'scalar', ('surface',), 'm', 'its radius (grown a little against '
+     'rounding)'),
+    ('surface_edge_end', 'int32', ('surface',), '-', 'one past its last static edge (its edges '
+     'start where the previous surface\'s end)'),
+    ('surface_vertex_end', 'int32', ('surface',), '-', 'likewise of its static vertices'),
     ('pair_friction', 'scalar', ('static_pair',), '-', 'Coulomb μ of each static pair: point i '
      'against static thing g (the half-spaces, then the shapes) at i·(planes + shapes) + g, '
      'then moving edge e against static edge s, then moving face f against static vertex v, '
@@ -316,6 +323,7 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
             'edge': len(host.edge_body),
             'face': len(host.face_body), 'static_edge': len(host.static_edge_a),
             'static_vertex': len(host.static_vertex),
+            'surface': len(host.surface_radius),
             'near': 2 * host.pair_count,
             'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
