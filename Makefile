@@ -1,5 +1,6 @@
 # Bootstrap, run and test affine_joint_sim in a Python 3.12 virtual environment.
-# `make venv` is idempotent: it reinstalls only when setup.py or the constraints change.
+# `make venv` is idempotent: it reinstalls only when setup.py or the constraints change, and
+# builds the interface packages without a wheel only when their definitions change.
 
 # DDS discovery stays on loopback for every process started from here.
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
@@ -25,17 +26,20 @@ FIND_PY312 = for p in python3.12 $$(ls -d $$HOME/.pyenv/versions/3.12.*/bin/pyth
 # so every tool that touches the install is pinned.
 define install_project
 	$(1) -m pip install -q $(2) setuptools
-	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test]'
+	$(1) -m pip install -q --no-build-isolation $(2) -e '.[test,interfaces]'
 endef
 
 .PHONY: venv run lint test bench bags replay gallery gpu-prep lock clean
 
+# tf2_msgs and simulation_interfaces have no wheel: tools/build_interfaces.py builds them from
+# interfaces/ into the venv, once (it returns at once when they are built from the same files).
 venv: $(STAMP)
+	@$(PY) tools/build_interfaces.py
 
 $(STAMP): setup.py $(CONSTRAINTS)
 	@test -x $(PY) || { py=$$($(FIND_PY312)) && echo "Creating $(VENV) with $$py" \
 	  && $$py -m venv $(VENV); }
-	@echo 'Installing affine_joint_sim[test] into $(VENV) under $(CONSTRAINTS)'
+	@echo 'Installing affine_joint_sim[test,interfaces] into $(VENV) under $(CONSTRAINTS)'
 	$(call install_project,$(PY),-c $(CONSTRAINTS))
 	@touch $@
 

