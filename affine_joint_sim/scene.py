@@ -130,12 +130,14 @@ class Body(StrictModel):
 
 class Frame(StrictModel):
     """A named frame rigidly attached to a body (a URDF link frame), its pose in the body's
-    frame: ``position`` [m] and ``orientation``."""
+    frame: ``position`` [m] and ``orientation``; ``parent``: the frame it hangs from on /tf (a
+    URDF link's parent link; None: the node's world frame, ``frame_id``)."""
 
     name: Name
     body: str
     position: Vec3 = (0.0, 0.0, 0.0)
     orientation: Orientation | None = None
+    parent: str | None = None
 
 
 SENSOR_TYPES = ('imu', 'contact')
@@ -447,6 +449,11 @@ class Scene(SceneSettings):
                 problems.append((f'joints[{i}].x1', 'x1 must differ from x0 (the axis is x1 - x0)'))
         problems += _token_clashes([j.name for j in self.joints])
         problems += _duplicates('frames', [f.name for f in self.frames])
+        frame_names = [f.name for f in self.frames]
+        for i, frame in enumerate(self.frames):
+            if frame.parent is not None and frame.parent not in frame_names:
+                problems.append((f'frames[{i}].parent', f'unknown frame {frame.parent!r}; '
+                                 f'valid: {", ".join(frame_names)}'))
         for section, items in (('frames', self.frames), ('visuals', self.visuals)):
             for i, item in enumerate(items):
                 if item.body not in body_names:

@@ -387,19 +387,28 @@ class Stepper:
         in the body."""
         return self._out(self._links.world(rigid_transforms(self._read('q'))))
 
-    def pose_reader(self, body, local, env: int = 0):
+    def pose_reader(self, body, local, env: int = 0, parent=None, parent_local=None):
         """A function that returns, each time it is called, the rigid world poses of frames on
         the bodies of environment ``env``: frame i on body ``body[i]`` at pose ``local[i]``
         (4×4) in that body's frame. It returns a (n, 7) float64 array (valid until the next
         call): position [m] and quaternion (x, y, z, w), w ≥ 0, of R·local with R the rotation
-        nearest to the body's A (physics.frames). One replay of a captured launch, no Python
-        per frame."""
+        nearest to the body's A (physics.frames). With ``parent`` (a body per frame, −1: the
+        world) and ``parent_local`` (4×4 each), each pose is in that parent frame instead (the
+        transforms of /tf). One replay of a captured launch, no Python per frame."""
         k = self._k
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
+        if parent is None:
+            parent, parent_local = np.full(len(local), -1), np.tile(np.eye(4), (len(local), 1, 1))
+        parent_local = np.asarray(parent_local, dtype=np.float64).reshape(-1, 4, 4)
         dtype = k.numpy_scalar
         inputs = [wp.array(np.asarray(body, dtype=np.int32), dtype=int, device=self.device),
                   wp.array(local[:, :3, :3].astype(dtype), dtype=k.mat33, device=self.device),
-                  wp.array(local[:, :3, 3].astype(dtype), dtype=k.vec3, device=self.device)]
+                  wp.array(local[:, :3, 3].astype(dtype), dtype=k.vec3, device=self.device),
+                  wp.array(np.asarray(parent, dtype=np.int32), dtype=int, device=self.device),
+                  wp.array(parent_local[:, :3, :3].astype(dtype), dtype=k.mat33,
+                           device=self.device),
+                  wp.array(parent_local[:, :3, 3].astype(dtype), dtype=k.vec3,
+                           device=self.device)]
         out = wp.zeros((len(local), POSE_COLUMNS), dtype=wp.float64, device=self.device)
         host = host_copy(out, not self.device.is_cpu)
         kernel = frame_kernel(k.scalar)

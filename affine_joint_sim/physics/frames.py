@@ -1,11 +1,13 @@
 """Rigid poses of frames on affine bodies, for viewers: one kernel, one thread per frame.
 
 Frame i sits on body ``body[i]`` with rotation ``rotation[i]`` and offset ``offset[i]`` in the
-body's rest frame. Its world pose uses the rotation R nearest to the body's A (the polar
-decomposition's, R = U Vᵀ of A = U Σ Vᵀ; for the nearly rigid A of a running simulation three
-Newton–Schulz steps R ← R (3 − RᵀR) / 2 reach it to rounding at a fraction of an SVD's cost,
-an SVD is taken when ‖AᵀA − I‖_F ≥ 0.1): position p + R·offset, orientation R·rotation as a
-unit quaternion (x, y, z, w) with w ≥ 0.
+body's rest frame; its pose is in the world, or, where ``parent[i]`` ≥ 0, in the frame at
+``parent_rotation[i]``, ``parent_offset[i]`` on body ``parent[i]`` (/tf's parent link). Its
+world pose uses the rotation R nearest to the body's A (the polar decomposition's, R = U Vᵀ of
+A = U Σ Vᵀ; for the nearly rigid A of a running simulation three Newton–Schulz steps R ← R (3 −
+RᵀR) / 2 reach it to rounding at a fraction of an SVD's cost, an SVD is taken when ‖AᵀA − I‖_F
+≥ 0.1): position p + R·offset, orientation R·rotation as a unit quaternion (x, y, z, w) with w
+≥ 0 (relative to a parent frame F: Fᵀ(p − p_F), Fᵀ R·rotation).
 Built per precision, in a Warp module of its own (only scenes that are viewed compile it).
 """
 
@@ -61,12 +63,9 @@ def build(t) -> SimpleNamespace:
             norm = -norm
         return x / norm, y / norm, z / norm, w / norm
 
-    @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
-    def frame_poses(q: wp.array2d(dtype=vec12), env: int, body: wp.array(dtype=int),
-                    rotation: wp.array(dtype=mat33), offset: wp.array(dtype=vec3),
-                    out: wp.array2d(dtype=wp.float64)):
-        i = wp.tid()
-        state = q[env, body[i]]
+    @wp.func
+    def rigid(state: vec12):
+        """(p, R): the body's position and the rotation nearest to its A."""
         a = affine(state)
         eye = wp.identity(n=3, dtype=scalar)
         gram = wp.transpose(a) * a - eye
@@ -77,8 +76,23 @@ def build(t) -> SimpleNamespace:
         else:
             u, sigma, v = svd(a)
             r = u * wp.transpose(v)
-        p = vec3(state[0], state[1], state[2]) + r * offset[i]
-        x, y, z, w = quaternion(r * rotation[i])
+        return vec3(state[0], state[1], state[2]), r
+
+    @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
+    def frame_poses(q: wp.array2d(dtype=vec12), env: int, body: wp.array(dtype=int),
+                    rotation: wp.array(dtype=mat33), offset: wp.array(dtype=vec3),
+                    parent: wp.array(dtype=int), parent_rotation: wp.array(dtype=mat33),
+                    parent_offset: wp.array(dtype=vec3), out: wp.array2d(dtype=wp.float64)):
+        i = wp.tid()
+        c, r = rigid(q[env, body[i]])
+        p = c + r * offset[i]
+        turn = r * rotation[i]
+        if parent[i] >= 0:          # relative to a frame on another (or the same) body
+            c_up, r_up = rigid(q[env, parent[i]])
+            up = r_up * parent_rotation[i]
+            p = wp.transpose(up) * (p - c_up - r_up * parent_offset[i])
+            turn = wp.transpose(up) * turn
+        x, y, z, w = quaternion(turn)
         out[i, 0] = wp.float64(p[0])
         out[i, 1] = wp.float64(p[1])
         out[i, 2] = wp.float64(p[2])

@@ -146,6 +146,7 @@ class SimNode(Node):
             self._publish_and_record(self.scene_pub, scene_msg, 0)
             self._publish_and_record(self.description_pub, self.topics[
                 'robot_description'].msg_class(data=robot_description(self.scene)), 0)
+            self.viz.publish_static(0)
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
                          'command_joints': self.commands.array_joints})
@@ -212,6 +213,10 @@ class SimNode(Node):
         self.viz = VizPublisher(self._publisher, self.sim, self.config['viz_rate'],
                                 self.config['frame_id'], self._publish_and_record,
                                 lambda: self.recording.active)
+        if self.viz.publishers and self.viz.tree is None:
+            self.get_logger().warning('no /tf or /tf_static: tf2_msgs is not built in this '
+                                      'environment (make venv builds it where cmake and a C++ '
+                                      'compiler are)')
         for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
             for key in JOINT_COMMAND_KEYS.get(joint_kind(kind).command, ()):
                 self._subscribe(key, joint)

@@ -19,8 +19,8 @@ __all__ = ['Topic', 'TOPIC_KEYS', 'COMMAND_KEYS', 'ANSWER_KEYS', 'JOINT_COMMAND_
 
 TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
               'joint_commands', 'effort_commands', 'position_commands', 'joint_states', 'clock',
-              'scene', 'robot_description', 'events', 'markers', 'body_poses', 'sensor_imu',
-              'sensor_contact')
+              'scene', 'robot_description', 'events', 'markers', 'body_poses', 'tf',
+              'tf_static', 'sensor_imu', 'sensor_contact')
 # Commands that answer a lockstep state (several joints at once).
 ANSWER_KEYS = ('joint_commands', 'effort_commands', 'position_commands')
 COMMAND_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',

@@ -1,10 +1,10 @@
-"""The run made visible (README.md#seeing-a-run): ``markers`` (MarkerArray, one marker per
-shape of every body) and ``body_poses`` (PoseArray: every body, or every link frame of a URDF
-robot), both in ``frame_id`` and stamped with sim time, at ``viz_rate`` Hz of sim time; a
-DELETEALL on reset. Both messages are serialized once and then patched in place
-(``ros.patched``); the same bytes are published and recorded. In a scene with contact a
-second MarkerArray on ``markers`` follows each one: an arrow per active contact, its force
-(normal and friction) at ``ARROW_SCALE`` m/N from the touching point (namespace
+"""The run made visible (README.md#seeing-a-run): ``markers`` (MarkerArray, one marker per shape
+of every body), ``body_poses`` (PoseArray: every body, or every link frame of a URDF robot) and
+/tf (``ros.transforms``; /tf_static once), in ``frame_id`` and stamped with sim time, at
+``viz_rate`` Hz of sim time; a DELETEALL on reset. Both messages are serialized once and then
+patched in place (``ros.patched``); the same bytes are published and recorded. In a scene with
+contact a second MarkerArray on ``markers`` follows each one: an arrow per active contact, its
+force (normal and friction) at ``ARROW_SCALE`` m/N from the touching point (namespace
 ``contact_forces``), and a DELETE for each arrow of the last one that is gone.
 """
 
@@ -12,6 +12,7 @@ import math
 
 from affine_joint_sim.poses import LinkFrames
 from affine_joint_sim.ros.patched import PatchedMessage
+from affine_joint_sim.ros.transforms import TransformTree, tf_available
 from affine_joint_sim.viz.drawables import drawables
 
 __all__ = ['VizMessages', 'VizSchedule', 'VizPublisher', 'ContactArrows', 'ARROW_SCALE']
@@ -139,7 +140,8 @@ def _pose_fields(poses) -> list:
 
 
 class VizPublisher:
-    """The node's ``markers`` and ``body_poses`` publishers and their schedule.
+    """The node's ``markers``, ``body_poses`` and ``tf`` publishers and their schedule (``tf``
+    and ``tf_static`` only where tf2_msgs is built: ``transforms.tf_available``).
 
     Args:
         publisher: ``publisher(key)`` creates the node's publisher of topic ``key``
@@ -164,7 +166,14 @@ class VizPublisher:
         self.messages = VizMessages(sim, frame_id)
         self.arrows = ContactArrows(sim, frame_id) if sim.scene.contact is not None \
             or sim.scene.ground is not None else None
-        self.publishers = {key: publisher(key) for key in self.KEYS}
+        self.tree = TransformTree(sim, frame_id) if tf_available() else None
+        keys = self.KEYS + (('tf', 'tf_static') if self.tree is not None else ())
+        self.publishers = {key: publisher(key) for key in keys}
+
+    def publish_static(self, t_ns: int) -> None:
+        """Publish (and record) /tf_static once: the frames that never move in their parent."""
+        if self.publishers and self.tree is not None:
+            self._publish(self.publishers['tf_static'], self.tree.static_message(0), t_ns)
 
     def publish(self, sim_time_ns: int, t_ns: int) -> None:
         """Publish (and record) the views of the current state if they are due."""
@@ -178,6 +187,8 @@ class VizPublisher:
         if self.arrows is not None:
             self._publish(self.publishers['markers'], self.arrows.message(sim_time_ns), t_ns)
         self._publish(self.publishers['body_poses'], poses, t_ns)
+        if self.tree is not None:
+            self._publish(self.publishers['tf'], self.tree.moving_message(sim_time_ns), t_ns)
 
     def reset(self, t_ns: int) -> None:
         """Clear the viewers' markers (DELETEALL); the next state is published in full."""

@@ -300,8 +300,10 @@ class _Converter:
         for link in links:
             local = pm.matmul(_rigid_inverse(pose), self.poses[link])
             self.local[link] = local
+            joint = self.joint_of.get(link)
             frames.append({'name': link, 'body': name, 'position': _list(local[:3, 3]),
-                           'orientation': {'quat_xyzw': quaternion_from_matrix(local[:3, :3])}})
+                           'orientation': {'quat_xyzw': quaternion_from_matrix(local[:3, :3])},
+                           **({'parent': joint.parent} if joint is not None else {})})
         return body, frames
 
     # ---- joints --------------------------------------------------------------------------
