@@ -42,6 +42,8 @@ from affine_joint_sim.ros.recording import RunRecording
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
 from affine_joint_sim.ros.sensor_messages import SensorMessages
 from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, SENSOR_KEYS, load_topics
+from affine_joint_sim.ros.simulation_services import (SimulationServices,
+                                                      simulation_interfaces_available)
 from affine_joint_sim.ros.viz import VizPublisher
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import SimulationWarning, Stepper
@@ -225,6 +227,12 @@ class SimNode(Node):
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
+        if simulation_interfaces_available():
+            self.simulation_services = SimulationServices(self)
+        else:
+            self.get_logger().warning('no simulation_interfaces services: the package is not '
+                                      'built in this environment (make venv builds it where '
+                                      'cmake and a C++ compiler are)')
 
     def _publisher(self, key: str, item: str | None = None):
         """The publisher of topic ``key`` (topics.yaml; ``item``: the sensor of a per-sensor
@@ -382,13 +390,17 @@ class SimNode(Node):
         response.success, response.message = message is not None, message or 'node stopping'
         return response
 
-    def _on_pause(self, request, response):
+    def set_paused(self, paused: bool) -> None:
+        """Pause or resume stepping (``~/pause``, the standard's SetSimulationState)."""
         with self._wake:
-            self.paused = request.data
+            self.paused = paused
             if not self.paused:
                 self.pacer.anchor(self.sim.time)
                 self.pacer.restart_window(self.sim.time)
             self._wake.notify()
+
+    def _on_pause(self, request, response):
+        self.set_paused(request.data)
         response.success = True
         response.message = f'{"paused" if self.paused else "running"} at t = {self.sim.time:g} s'
         return response

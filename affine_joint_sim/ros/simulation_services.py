@@ -1,0 +1,189 @@
+"""The ROS simulation standard (``simulation_interfaces``, README.md#the-simulation-standard)
+on the node, where make venv built the package: services under the node's name
+(``~/get_simulator_features``, ...), as Gazebo serves them under ``/gzserver``.
+
+Served: GetSimulatorFeatures, GetSimulationState and SetSimulationState (playing, paused;
+stopped = paused at the initial state; quitting ends the run as Ctrl-C does), ResetSimulation
+(time and state together), StepSimulation (while paused, each step published and recorded like
+any other), GetEntities (every body; ``filters.filter`` a regular expression on names) and
+GetEntityState (a body's pose and twist in ``frame_id``). Not served, and not listed in the
+features: spawning and deleting (a scene is fixed at start), setting entity states, the
+SimulateSteps action, worlds, named poses, bounds, tags and categories. Every answer fills the
+standard's ``Result`` (code and message).
+"""
+
+import re
+
+import numpy as np
+
+from affine_joint_sim.rotations import quaternion_from_matrix
+
+__all__ = ['simulation_interfaces_available', 'SimulationServices']
+
+
+def simulation_interfaces_available() -> bool:
+    """Whether simulation_interfaces can be imported (make venv builds it)."""
+    try:
+        import simulation_interfaces.srv  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+class SimulationServices:
+    """The standard's services on ``node`` (an affine_joint_sim node)."""
+
+    def __init__(self, node):
+        from simulation_interfaces import srv
+        from simulation_interfaces.msg import SimulatorFeatures
+
+        self.node = node
+        self.stopped = False        # STATE_STOPPED: paused at the initial state
+        f = SimulatorFeatures
+        self.features = [f.SIMULATION_RESET, f.SIMULATION_RESET_TIME, f.SIMULATION_RESET_STATE,
+                         f.SIMULATION_STATE_GETTING, f.SIMULATION_STATE_SETTING,
+                         f.SIMULATION_STATE_PAUSE, f.STEP_SIMULATION_SINGLE,
+                         f.STEP_SIMULATION_MULTIPLE, f.ENTITY_STATE_GETTING]
+        for name, kind, handler in (
+                ('get_simulator_features', srv.GetSimulatorFeatures, self._features),
+                ('get_simulation_state', srv.GetSimulationState, self._get_state),
+                ('set_simulation_state', srv.SetSimulationState, self._set_state),
+                ('reset_simulation', srv.ResetSimulation, self._reset),
+                ('step_simulation', srv.StepSimulation, self._step),
+                ('get_entities', srv.GetEntities, self._entities),
+                ('get_entity_state', srv.GetEntityState, self._entity_state)):
+            node.create_service(kind, f'~/{name}', handler)
+
+    @staticmethod
+    def _result(response, code: int, message: str = ''):
+        response.result.result, response.result.error_message = code, message
+        return response
+
+    def _features(self, request, response):
+        response.features.features = self.features
+        response.features.custom_info = ('affine_joint_sim: entities are the scene\'s bodies; '
+                                         'a reset restores time and state together')
+        return response
+
+    def _state_code(self) -> int:
+        state = self._state_msg()
+        if self.stopped and self.node.paused:
+            return state.STATE_STOPPED
+        return state.STATE_PAUSED if self.node.paused else state.STATE_PLAYING
+
+    @staticmethod
+    def _state_msg():
+        from simulation_interfaces.msg import SimulationState
+        return SimulationState
+
+    def _get_state(self, request, response):
+        response.state.state = self._state_code()
+        return self._result(response, response.result.RESULT_OK)
+
+    def _set_state(self, request, response):
+        states, target = self._state_msg(), request.state.state
+        if target == self._state_code():
+            return self._result(response, response.ALREADY_IN_TARGET_STATE, 'already there')
+        if target == states.STATE_QUITTING:
+            self.node.stop_requested.set()
+            return self._result(response, response.result.RESULT_OK, 'the run ends')
+        if target not in (states.STATE_PLAYING, states.STATE_PAUSED, states.STATE_STOPPED):
+            return self._result(response, response.result.RESULT_FEATURE_UNSUPPORTED,
+                                f'state {target}: worlds are not loaded or unloaded here')
+        if target == states.STATE_STOPPED:
+            self.node.set_paused(True)
+            if self.node._in_stepping_thread(lambda: self.node.reset() or True) is None:
+                return self._result(response, response.result.RESULT_OPERATION_FAILED,
+                                    'node stopping')
+        self.node.set_paused(target != states.STATE_PLAYING)
+        self.stopped = target == states.STATE_STOPPED
+        return self._result(response, response.result.RESULT_OK)
+
+    def _reset(self, request, response):
+        both = request.SCOPE_TIME | request.SCOPE_STATE
+        if request.scope not in (request.SCOPE_DEFAULT, request.SCOPE_ALL) \
+                and request.scope & both != both:
+            return self._result(response, response.result.RESULT_FEATURE_UNSUPPORTED,
+                                'time and state reset together only (SCOPE_TIME | SCOPE_STATE, '
+                                'SCOPE_ALL or SCOPE_DEFAULT)')
+        done = self.node._in_stepping_thread(lambda: self.node.reset() or True)
+        if done is None:
+            return self._result(response, response.result.RESULT_OPERATION_FAILED,
+                                'node stopping')
+        return self._result(response, response.result.RESULT_OK)
+
+    def _step(self, request, response):
+        if not self.node.paused:
+            return self._result(response, response.result.RESULT_OPERATION_FAILED,
+                                'not paused: set STATE_PAUSED first')
+
+        def steps():
+            for _ in range(request.steps):
+                self.node.step()
+            return True
+
+        self.stopped = False
+        if self.node._in_stepping_thread(steps) is None:
+            return self._result(response, response.result.RESULT_OPERATION_FAILED,
+                                'node stopping')
+        return self._result(response, response.result.RESULT_OK)
+
+    def _entities(self, request, response):
+        filters = request.filters
+        if filters.categories or filters.tags.tags or filters.bounds.points:
+            return self._result(response, response.result.RESULT_FEATURE_UNSUPPORTED,
+                                'only filters.filter (a regular expression on names)')
+        try:
+            pattern = re.compile(filters.filter)
+        except re.error as exc:
+            return self._result(response, response.result.RESULT_OPERATION_FAILED,
+                                f'filters.filter {filters.filter!r}: {exc}')
+        response.entities = [name for name in self.node.sim.body_names if pattern.search(name)]
+        return self._result(response, response.result.RESULT_OK)
+
+    def _entity_state(self, request, response):
+        sim = self.node.sim
+        if request.entity not in sim.body_names:
+            return self._result(response, response.result.RESULT_NOT_FOUND,
+                                f'no body {request.entity!r} (GetEntities lists them)')
+
+        def read():
+            b = sim.body_names.index(request.entity)
+            q, qdot = sim.body_q, sim.body_qdot
+            q, qdot = (q[0], qdot[0]) if q.ndim == 3 else (q, qdot)
+            transforms = sim.link_transforms
+            transforms = transforms[0] if transforms.ndim == 4 else transforms
+            names = sim.link_names
+            pose = transforms[names.index(request.entity)] if request.entity in names \
+                else _rigid(q[b])
+            a, a_dot = q[b, 3:].reshape(3, 3), qdot[b, 3:].reshape(3, 3)
+            spin = a_dot @ np.linalg.inv(a)            # ω× = Ȧ A⁻¹ (its skew part)
+            omega = 0.5 * np.array([spin[2, 1] - spin[1, 2], spin[0, 2] - spin[2, 0],
+                                    spin[1, 0] - spin[0, 1]])
+            # the link frame's velocity: the centre of mass's plus ω × its offset
+            velocity = qdot[b, :3] + np.cross(omega, pose[:3, 3] - q[b, :3])
+            return pose, velocity, omega, self.node.loop.sim_time_ns
+
+        read_out = self.node._in_stepping_thread(read)
+        if read_out is None:
+            return self._result(response, response.result.RESULT_OPERATION_FAILED,
+                                'node stopping')
+        pose, velocity, omega, stamp = read_out
+        state = response.state
+        state.header.frame_id = self.node.config['frame_id']
+        state.header.stamp.sec, state.header.stamp.nanosec = divmod(int(stamp), 10 ** 9)
+        p, o = state.pose.position, state.pose.orientation
+        p.x, p.y, p.z = map(float, pose[:3, 3])
+        o.x, o.y, o.z, o.w = map(float, quaternion_from_matrix(pose[:3, :3]))
+        t = state.twist
+        t.linear.x, t.linear.y, t.linear.z = map(float, velocity)
+        t.angular.x, t.angular.y, t.angular.z = map(float, omega)
+        return self._result(response, response.result.RESULT_OK)
+
+
+def _rigid(q: np.ndarray) -> np.ndarray:
+    """The 4×4 pose of a body state: its position and the rotation nearest to its A."""
+    u, _, vt = np.linalg.svd(q[3:].reshape(3, 3))
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = u @ vt, q[:3]
+    return out

@@ -1,0 +1,94 @@
+"""The ROS simulation standard on a running node (README.md#the-simulation-standard), called
+from this process with real rclpy clients: the features it says it has, pausing, stepping,
+stopping and resetting (each step published like any other), the bodies as entities and a
+body's state against the scene's own numbers."""
+
+import math
+
+import pytest
+
+from helpers.ros_client import Inbox, call, stamp_ns
+
+pytest.importorskip('simulation_interfaces', reason='simulation_interfaces not built')
+
+NODE = '/affine_joint_sim/'
+DT_NS = 10_000_000          # the pendulum's dt
+
+
+def _call(ros_node, wait_for, name, **fields):
+    from simulation_interfaces import srv
+
+    kind = getattr(srv, ''.join(part.title() for part in name.split('_')))
+    request = kind.Request()
+    for key, value in fields.items():
+        setattr(request, key, value)
+    return call(ros_node, wait_for, kind, NODE + name, request)
+
+
+def test_the_standard_pauses_steps_stops_and_resets(sim, ros_node, wait_for):
+    from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
+
+    sim('--mode', 'fast')
+    states = Inbox(ros_node, 'joint_states')
+    features = _call(ros_node, wait_for, 'get_simulator_features').features.features
+    assert {SimulatorFeatures.STEP_SIMULATION_MULTIPLE, SimulatorFeatures.SIMULATION_RESET,
+            SimulatorFeatures.ENTITY_STATE_GETTING} <= set(features)
+    assert SimulatorFeatures.SPAWNING not in features
+    state = _call(ros_node, wait_for, 'get_simulation_state')
+    assert state.state.state == SimulationState.STATE_PLAYING
+    refused = _call(ros_node, wait_for, 'step_simulation', steps=3)
+    assert refused.result.result == Result.RESULT_OPERATION_FAILED      # not paused
+    paused = _call(ros_node, wait_for, 'set_simulation_state',
+                   state=SimulationState(state=SimulationState.STATE_PAUSED))
+    assert paused.result.result == Result.RESULT_OK
+    again = _call(ros_node, wait_for, 'set_simulation_state',
+                  state=SimulationState(state=SimulationState.STATE_PAUSED))
+    assert again.result.result == again.ALREADY_IN_TARGET_STATE
+    assert wait_for(lambda: states.last is not None)
+    count = -1
+    while count != len(states.messages):          # the states sent before the pause arrive
+        count = len(states.messages)
+        wait_for(lambda: len(states.messages) > count, timeout=0.5)
+    before = stamp_ns(states.last)
+    stepped = _call(ros_node, wait_for, 'step_simulation', steps=5)
+    assert stepped.result.result == Result.RESULT_OK
+    assert wait_for(lambda: stamp_ns(states.last) == before + 5 * DT_NS)
+    assert len(states.messages) == count + 5                # each step published
+    stopped = _call(ros_node, wait_for, 'set_simulation_state',
+                    state=SimulationState(state=SimulationState.STATE_STOPPED))
+    assert stopped.result.result == Result.RESULT_OK
+    assert wait_for(lambda: stamp_ns(states.last) == 0)
+    assert _call(ros_node, wait_for, 'get_simulation_state').state.state == \
+        SimulationState.STATE_STOPPED
+    assert _call(ros_node, wait_for, 'set_simulation_state', state=SimulationState(
+        state=SimulationState.STATE_PLAYING)).result.result == Result.RESULT_OK
+    assert wait_for(lambda: stamp_ns(states.last) > 10 * DT_NS)
+    reset = _call(ros_node, wait_for, 'reset_simulation', scope=1)       # time alone
+    assert reset.result.result == Result.RESULT_FEATURE_UNSUPPORTED
+    reset = _call(ros_node, wait_for, 'reset_simulation', scope=255)
+    assert reset.result.result == Result.RESULT_OK
+
+
+def test_bodies_are_the_entities_and_their_state_is_the_scene_s(sim, ros_node, wait_for):
+    from simulation_interfaces.msg import EntityFilters, Result, SimulationState
+
+    sim('--scene', 'double_pendulum', '--mode', 'fast')
+    _call(ros_node, wait_for, 'set_simulation_state',
+          state=SimulationState(state=SimulationState.STATE_STOPPED))     # at t = 0
+    listed = _call(ros_node, wait_for, 'get_entities')
+    assert listed.result.result == Result.RESULT_OK and len(listed.entities) >= 2
+    only = _call(ros_node, wait_for, 'get_entities', filters=EntityFilters(filter='^upper'))
+    assert only.entities == [name for name in listed.entities if name.startswith('upper')]
+    bad = _call(ros_node, wait_for, 'get_entities', filters=EntityFilters(filter='('))
+    assert bad.result.result == Result.RESULT_OPERATION_FAILED
+    from affine_joint_sim import Scene
+    from affine_joint_sim.resources import scene_path
+    scene = Scene.load(scene_path('double_pendulum'))
+    body = scene.bodies[-1]
+    state = _call(ros_node, wait_for, 'get_entity_state', entity=body.name)
+    assert state.result.result == Result.RESULT_OK
+    assert state.state.header.frame_id == 'world' and stamp_ns(state.state) == 0
+    p = state.state.pose.position
+    assert math.dist((p.x, p.y, p.z), body.position) < 1e-9
+    missing = _call(ros_node, wait_for, 'get_entity_state', entity='nobody')
+    assert missing.result.result == Result.RESULT_NOT_FOUND
