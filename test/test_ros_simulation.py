@@ -1,7 +1,7 @@
 """The ROS simulation standard on a running node (README.md#the-simulation-standard), called
 from this process with real rclpy clients: the features it says it has, pausing, stepping,
-stopping and resetting (each step published like any other), the bodies as entities and a
-body's state against the scene's own numbers."""
+stopping and resetting (each step published like any other), the SimulateSteps action with its
+feedback, the bodies as entities and a body's state against the scene's own numbers."""
 
 import math
 
@@ -32,6 +32,7 @@ def test_the_standard_pauses_steps_stops_and_resets(sim, ros_node, wait_for):
     states = Inbox(ros_node, 'joint_states')
     features = _call(ros_node, wait_for, 'get_simulator_features').features.features
     assert {SimulatorFeatures.STEP_SIMULATION_MULTIPLE, SimulatorFeatures.SIMULATION_RESET,
+            SimulatorFeatures.STEP_SIMULATION_ACTION,
             SimulatorFeatures.ENTITY_STATE_GETTING} <= set(features)
     assert SimulatorFeatures.SPAWNING not in features
     state = _call(ros_node, wait_for, 'get_simulation_state')
@@ -92,3 +93,40 @@ def test_bodies_are_the_entities_and_their_state_is_the_scene_s(sim, ros_node, w
     assert math.dist((p.x, p.y, p.z), body.position) < 1e-9
     missing = _call(ros_node, wait_for, 'get_entity_state', entity='nobody')
     assert missing.result.result == Result.RESULT_NOT_FOUND
+
+
+def test_the_simulate_steps_action_steps_with_feedback(sim, ros_node, wait_for):
+    from rclpy.action import ActionClient
+    from simulation_interfaces.action import SimulateSteps
+    from simulation_interfaces.msg import Result, SimulationState
+
+    sim('--mode', 'fast')
+    states = Inbox(ros_node, 'joint_states')
+    client = ActionClient(ros_node, SimulateSteps, NODE + 'simulate_steps')
+    assert client.wait_for_server(timeout_sec=30.0)
+
+    def run(steps):
+        feedback = []
+        sent = client.send_goal_async(SimulateSteps.Goal(steps=steps),
+                                      feedback_callback=lambda m: feedback.append(m.feedback))
+        assert wait_for(sent.done)
+        done = sent.result().get_result_async()
+        assert wait_for(done.done, timeout=30.0)
+        return done.result().result, feedback
+
+    refused, _ = run(3)                                     # playing: refused
+    assert refused.result.result == Result.RESULT_OPERATION_FAILED
+    _call(ros_node, wait_for, 'set_simulation_state',
+          state=SimulationState(state=SimulationState.STATE_PAUSED))
+    assert wait_for(lambda: states.last is not None)
+    count = -1
+    while count != len(states.messages):          # the states sent before the pause arrive
+        count = len(states.messages)
+        wait_for(lambda: len(states.messages) > count, timeout=0.5)
+    before = stamp_ns(states.last)
+    result, feedback = run(4)
+    assert result.result.result == Result.RESULT_OK
+    assert wait_for(lambda: len(feedback) == 4)     # a topic: it may trail the result
+    assert [(f.completed_steps, f.remaining_steps) for f in feedback] == \
+        [(1, 3), (2, 2), (3, 1), (4, 0)]
+    assert wait_for(lambda: stamp_ns(states.last) == before + 4 * DT_NS)

@@ -4,12 +4,13 @@ on the node, where make venv built the package: services under the node's name
 
 Served: GetSimulatorFeatures, GetSimulationState and SetSimulationState (playing, paused;
 stopped = paused at the initial state; quitting ends the run as Ctrl-C does), ResetSimulation
-(time and state together), StepSimulation (while paused, each step published and recorded like
-any other), GetEntities (every body; ``filters.filter`` a regular expression on names) and
+(time and state together), StepSimulation and the SimulateSteps action (while paused, each step
+published and recorded like any other; the action gives feedback after each step and can be
+canceled), GetEntities (every body; ``filters.filter`` a regular expression on names) and
 GetEntityState (a body's pose and twist in ``frame_id``). Not served, and not listed in the
-features: spawning and deleting (a scene is fixed at start), setting entity states, the
-SimulateSteps action, worlds, named poses, bounds, tags and categories. Every answer fills the
-standard's ``Result`` (code and message).
+features: spawning and deleting (a scene is fixed at start), setting entity states, worlds,
+named poses, bounds, tags and categories. Every answer fills the standard's ``Result`` (code
+and message).
 """
 
 import re
@@ -43,7 +44,8 @@ class SimulationServices:
         self.features = [f.SIMULATION_RESET, f.SIMULATION_RESET_TIME, f.SIMULATION_RESET_STATE,
                          f.SIMULATION_STATE_GETTING, f.SIMULATION_STATE_SETTING,
                          f.SIMULATION_STATE_PAUSE, f.STEP_SIMULATION_SINGLE,
-                         f.STEP_SIMULATION_MULTIPLE, f.ENTITY_STATE_GETTING]
+                         f.STEP_SIMULATION_MULTIPLE, f.STEP_SIMULATION_ACTION,
+                         f.ENTITY_STATE_GETTING]
         for name, kind, handler in (
                 ('get_simulator_features', srv.GetSimulatorFeatures, self._features),
                 ('get_simulation_state', srv.GetSimulationState, self._get_state),
@@ -53,6 +55,10 @@ class SimulationServices:
                 ('get_entities', srv.GetEntities, self._entities),
                 ('get_entity_state', srv.GetEntityState, self._entity_state)):
             node.create_service(kind, f'~/{name}', handler)
+        from rclpy.action import ActionServer, CancelResponse
+        from simulation_interfaces.action import SimulateSteps
+        self._action = ActionServer(node, SimulateSteps, '~/simulate_steps', self._simulate,
+                                    cancel_callback=lambda goal: CancelResponse.ACCEPT)
 
     @staticmethod
     def _result(response, code: int, message: str = ''):
@@ -127,6 +133,32 @@ class SimulationServices:
             return self._result(response, response.result.RESULT_OPERATION_FAILED,
                                 'node stopping')
         return self._result(response, response.result.RESULT_OK)
+
+    def _simulate(self, goal):
+        """The SimulateSteps action: ``steps`` steps while paused, feedback after each, one
+        stepping-thread request per step (so other requests interleave); cancellable."""
+        from simulation_interfaces.action import SimulateSteps
+
+        result, total = SimulateSteps.Result(), goal.request.steps
+        if not self.node.paused:
+            goal.abort()
+            return self._result(result, result.result.RESULT_OPERATION_FAILED,
+                                'not paused: set STATE_PAUSED first')
+        self.stopped = False
+        feedback = SimulateSteps.Feedback()
+        for done in range(1, total + 1):
+            if goal.is_cancel_requested:
+                goal.canceled()
+                return self._result(result, result.result.RESULT_OK,
+                                    f'canceled after {done - 1} steps')
+            if self.node._in_stepping_thread(lambda: self.node.step() or True) is None:
+                goal.abort()
+                return self._result(result, result.result.RESULT_OPERATION_FAILED,
+                                    'node stopping')
+            feedback.completed_steps, feedback.remaining_steps = done, total - done
+            goal.publish_feedback(feedback)
+        goal.succeed()
+        return self._result(result, result.result.RESULT_OK)
 
     def _entities(self, request, response):
         filters = request.filters
