@@ -25,6 +25,17 @@ def _call(ros_node, wait_for, name, **fields):
     return call(ros_node, wait_for, kind, NODE + name, request)
 
 
+def _settled(states, wait_for) -> int:
+    """Wait (the node paused) until the states sent before the pause have all arrived; their
+    count."""
+    assert wait_for(lambda: states.last is not None)
+    count = -1
+    while count != len(states.messages):
+        count = len(states.messages)
+        wait_for(lambda: len(states.messages) > count, timeout=0.5)
+    return count
+
+
 def test_the_standard_pauses_steps_stops_and_resets(sim, ros_node, wait_for):
     from simulation_interfaces.msg import Result, SimulationState, SimulatorFeatures
 
@@ -45,11 +56,7 @@ def test_the_standard_pauses_steps_stops_and_resets(sim, ros_node, wait_for):
     again = _call(ros_node, wait_for, 'set_simulation_state',
                   state=SimulationState(state=SimulationState.STATE_PAUSED))
     assert again.result.result == again.ALREADY_IN_TARGET_STATE
-    assert wait_for(lambda: states.last is not None)
-    count = -1
-    while count != len(states.messages):          # the states sent before the pause arrive
-        count = len(states.messages)
-        wait_for(lambda: len(states.messages) > count, timeout=0.5)
+    count = _settled(states, wait_for)
     before = stamp_ns(states.last)
     stepped = _call(ros_node, wait_for, 'step_simulation', steps=5)
     assert stepped.result.result == Result.RESULT_OK
@@ -118,11 +125,7 @@ def test_the_simulate_steps_action_steps_with_feedback(sim, ros_node, wait_for):
     assert refused.result.result == Result.RESULT_OPERATION_FAILED
     _call(ros_node, wait_for, 'set_simulation_state',
           state=SimulationState(state=SimulationState.STATE_PAUSED))
-    assert wait_for(lambda: states.last is not None)
-    count = -1
-    while count != len(states.messages):          # the states sent before the pause arrive
-        count = len(states.messages)
-        wait_for(lambda: len(states.messages) > count, timeout=0.5)
+    _settled(states, wait_for)
     before = stamp_ns(states.last)
     result, feedback = run(4)
     assert result.result.result == Result.RESULT_OK

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from affine_joint_sim.control_script import ControlScript, command_stepper, pd_torques
-from affine_joint_sim.resources import scene_path
+from affine_joint_sim.resources import config_dir, scene_path
 
 __all__ = ['ours', 'mujoco', 'DURATION', 'LIFT_START']
 
@@ -69,7 +69,7 @@ def _mjcf(scene) -> str:
     geoms colliding with the objects only, the table and the cube added."""
     import mujoco
 
-    urdf = Path(scene_path('grasp')).parent / '..' / 'robots' / 'arm6_gripper.urdf'
+    urdf = config_dir() / 'robots' / 'arm6_gripper.urdf'
     text = re.sub(r'(<robot\b[^>]*>)', r'\1<mujoco><compiler discardvisual="true" '
                   r'fusestatic="false" balanceinertia="false"/></mujoco>',
                   urdf.read_text(encoding='utf-8'), count=1)

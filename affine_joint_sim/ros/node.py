@@ -41,9 +41,9 @@ from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.recording import RunRecording
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
 from affine_joint_sim.ros.sensor_messages import SensorMessages
-from affine_joint_sim.ros.topics import ANSWER_KEYS, JOINT_COMMAND_KEYS, SENSOR_KEYS, load_topics
-from affine_joint_sim.ros.simulation_services import (SimulationServices,
-                                                      simulation_interfaces_available)
+from affine_joint_sim.ros.simulation_services import SimulationServices
+from affine_joint_sim.ros.topics import (ANSWER_KEYS, JOINT_COMMAND_KEYS, SENSOR_KEYS,
+                                         interfaces_built, load_topics)
 from affine_joint_sim.ros.viz import VizPublisher
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import SimulationWarning, Stepper
@@ -227,7 +227,7 @@ class SimNode(Node):
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
-        if simulation_interfaces_available():
+        if interfaces_built('simulation_interfaces'):
             self.simulation_services = SimulationServices(self)
         else:
             self.get_logger().warning('no simulation_interfaces services: the package is not '

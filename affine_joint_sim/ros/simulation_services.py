@@ -17,18 +17,10 @@ import re
 
 import numpy as np
 
+from affine_joint_sim.poses import rigid_transforms
 from affine_joint_sim.rotations import quaternion_from_matrix
 
-__all__ = ['simulation_interfaces_available', 'SimulationServices']
-
-
-def simulation_interfaces_available() -> bool:
-    """Whether simulation_interfaces can be imported (make venv builds it)."""
-    try:
-        import simulation_interfaces.srv  # noqa: F401
-    except ImportError:
-        return False
-    return True
+__all__ = ['SimulationServices']
 
 
 class SimulationServices:
@@ -36,9 +28,10 @@ class SimulationServices:
 
     def __init__(self, node):
         from simulation_interfaces import srv
-        from simulation_interfaces.msg import SimulatorFeatures
+        from simulation_interfaces.msg import SimulationState, SimulatorFeatures
 
         self.node = node
+        self.states = SimulationState
         self.stopped = False        # STATE_STOPPED: paused at the initial state
         f = SimulatorFeatures
         self.features = [f.SIMULATION_RESET, f.SIMULATION_RESET_TIME, f.SIMULATION_RESET_STATE,
@@ -72,22 +65,22 @@ class SimulationServices:
         return response
 
     def _state_code(self) -> int:
-        state = self._state_msg()
+        states = self.states
         if self.stopped and self.node.paused:
-            return state.STATE_STOPPED
-        return state.STATE_PAUSED if self.node.paused else state.STATE_PLAYING
+            return states.STATE_STOPPED
+        return states.STATE_PAUSED if self.node.paused else states.STATE_PLAYING
 
-    @staticmethod
-    def _state_msg():
-        from simulation_interfaces.msg import SimulationState
-        return SimulationState
+    def _between_steps(self, action) -> bool:
+        """Run ``action()`` in the node's stepping thread between two steps; False if the node
+        stops first."""
+        return self.node._in_stepping_thread(lambda: action() or True) is not None
 
     def _get_state(self, request, response):
         response.state.state = self._state_code()
         return self._result(response, response.result.RESULT_OK)
 
     def _set_state(self, request, response):
-        states, target = self._state_msg(), request.state.state
+        states, target = self.states, request.state.state
         if target == self._state_code():
             return self._result(response, response.ALREADY_IN_TARGET_STATE, 'already there')
         if target == states.STATE_QUITTING:
@@ -96,12 +89,10 @@ class SimulationServices:
         if target not in (states.STATE_PLAYING, states.STATE_PAUSED, states.STATE_STOPPED):
             return self._result(response, response.result.RESULT_FEATURE_UNSUPPORTED,
                                 f'state {target}: worlds are not loaded or unloaded here')
-        if target == states.STATE_STOPPED:
-            self.node.set_paused(True)
-            if self.node._in_stepping_thread(lambda: self.node.reset() or True) is None:
-                return self._result(response, response.result.RESULT_OPERATION_FAILED,
-                                    'node stopping')
         self.node.set_paused(target != states.STATE_PLAYING)
+        if target == states.STATE_STOPPED and not self._between_steps(self.node.reset):
+            return self._result(response, response.result.RESULT_OPERATION_FAILED,
+                                'node stopping')
         self.stopped = target == states.STATE_STOPPED
         return self._result(response, response.result.RESULT_OK)
 
@@ -112,8 +103,7 @@ class SimulationServices:
             return self._result(response, response.result.RESULT_FEATURE_UNSUPPORTED,
                                 'time and state reset together only (SCOPE_TIME | SCOPE_STATE, '
                                 'SCOPE_ALL or SCOPE_DEFAULT)')
-        done = self.node._in_stepping_thread(lambda: self.node.reset() or True)
-        if done is None:
+        if not self._between_steps(self.node.reset):
             return self._result(response, response.result.RESULT_OPERATION_FAILED,
                                 'node stopping')
         return self._result(response, response.result.RESULT_OK)
@@ -126,10 +116,9 @@ class SimulationServices:
         def steps():
             for _ in range(request.steps):
                 self.node.step()
-            return True
 
         self.stopped = False
-        if self.node._in_stepping_thread(steps) is None:
+        if not self._between_steps(steps):
             return self._result(response, response.result.RESULT_OPERATION_FAILED,
                                 'node stopping')
         return self._result(response, response.result.RESULT_OK)
@@ -151,7 +140,7 @@ class SimulationServices:
                 goal.canceled()
                 return self._result(result, result.result.RESULT_OK,
                                     f'canceled after {done - 1} steps')
-            if self.node._in_stepping_thread(lambda: self.node.step() or True) is None:
+            if not self._between_steps(self.node.step):
                 goal.abort()
                 return self._result(result, result.result.RESULT_OPERATION_FAILED,
                                     'node stopping')
@@ -187,7 +176,7 @@ class SimulationServices:
             transforms = transforms[0] if transforms.ndim == 4 else transforms
             names = sim.link_names
             pose = transforms[names.index(request.entity)] if request.entity in names \
-                else _rigid(q[b])
+                else rigid_transforms(q[b])
             a, a_dot = q[b, 3:].reshape(3, 3), qdot[b, 3:].reshape(3, 3)
             spin = a_dot @ np.linalg.inv(a)            # ω× = Ȧ A⁻¹ (its skew part)
             omega = 0.5 * np.array([spin[2, 1] - spin[1, 2], spin[0, 2] - spin[2, 0],
@@ -211,11 +200,3 @@ class SimulationServices:
         t.linear.x, t.linear.y, t.linear.z = map(float, velocity)
         t.angular.x, t.angular.y, t.angular.z = map(float, omega)
         return self._result(response, response.result.RESULT_OK)
-
-
-def _rigid(q: np.ndarray) -> np.ndarray:
-    """The 4×4 pose of a body state: its position and the rotation nearest to its A."""
-    u, _, vt = np.linalg.svd(q[3:].reshape(3, 3))
-    out = np.eye(4)
-    out[:3, :3], out[:3, 3] = u @ vt, q[:3]
-    return out

@@ -15,7 +15,7 @@ from affine_joint_sim.resources import config_dir
 from affine_joint_sim.scene import topic_token
 
 __all__ = ['Topic', 'TOPIC_KEYS', 'COMMAND_KEYS', 'ANSWER_KEYS', 'JOINT_COMMAND_KEYS',
-           'SENSOR_KEYS', 'load_topics', 'message_class']
+           'SENSOR_KEYS', 'load_topics', 'message_class', 'interfaces_built']
 
 TOPIC_KEYS = ('joint_torque', 'joint_enable', 'joint_force', 'joint_force_enable',
               'joint_commands', 'effort_commands', 'position_commands', 'joint_states', 'clock',
@@ -67,6 +67,16 @@ class Topic:
     @property
     def msg_class(self):
         return message_class(self.type)
+
+
+def interfaces_built(package: str) -> bool:
+    """Whether the interface ``package`` can be imported: tf2_msgs and simulation_interfaces
+    have no wheel, and make venv builds them only where cmake and a compiler are."""
+    try:
+        importlib.import_module(f'{package}.msg')
+    except ImportError:
+        return False
+    return True
 
 
 def message_class(type_name: str):

@@ -13,27 +13,13 @@ import numpy as np
 from affine_joint_sim.poses import LinkFrames
 from affine_joint_sim.ros.patched import PatchedMessage
 
-__all__ = ['TransformTree', 'tf_available']
-
-
-def tf_available() -> bool:
-    """Whether tf2_msgs can be imported (make venv builds it where cmake and a compiler are)."""
-    try:
-        import tf2_msgs.msg  # noqa: F401
-    except ImportError:
-        return False
-    return True
+__all__ = ['TransformTree']
 
 
 class TransformTree:
     """The transforms of a Stepper's scene (environment 0) from ``frame_id``, as CDR bytes
     serialized once and patched in place (``ros.patched``); each message's poses come from
-    one launch (``Stepper.pose_reader`` with parent frames).
-
-    Attributes:
-        static: (parent, child) of the transforms on /tf_static.
-        moving: the same for /tf.
-    """
+    one launch (``Stepper.pose_reader`` with parent frames)."""
 
     def __init__(self, sim, frame_id: str):
         scene = sim.scene
@@ -48,8 +34,6 @@ class TransformTree:
             above = frame_id if parent is None or parent == frame_id else parent
             still = fixed[k] if above == frame_id else links.body[index[above]] == links.body[k]
             (static if still else moving).append((above, name, k, index.get(above, -1)))
-        self.static = [(parent, child) for parent, child, _, _ in static]
-        self.moving = [(parent, child) for parent, child, _, _ in moving]
         self._static = _Transforms(sim, links, static)
         self._moving = _Transforms(sim, links, moving)
 

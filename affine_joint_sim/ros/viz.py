@@ -12,7 +12,8 @@ import math
 
 from affine_joint_sim.poses import LinkFrames
 from affine_joint_sim.ros.patched import PatchedMessage
-from affine_joint_sim.ros.transforms import TransformTree, tf_available
+from affine_joint_sim.ros.topics import interfaces_built
+from affine_joint_sim.ros.transforms import TransformTree
 from affine_joint_sim.viz.drawables import drawables
 
 __all__ = ['VizMessages', 'VizSchedule', 'VizPublisher', 'ContactArrows', 'ARROW_SCALE']
@@ -141,7 +142,7 @@ def _pose_fields(poses) -> list:
 
 class VizPublisher:
     """The node's ``markers``, ``body_poses`` and ``tf`` publishers and their schedule (``tf``
-    and ``tf_static`` only where tf2_msgs is built: ``transforms.tf_available``).
+    and ``tf_static`` only where tf2_msgs is built: ``topics.interfaces_built``).
 
     Args:
         publisher: ``publisher(key)`` creates the node's publisher of topic ``key``
@@ -160,19 +161,19 @@ class VizPublisher:
     def __init__(self, publisher, sim, rate: float, frame_id: str, publish, recording):
         self.schedule = VizSchedule(rate)
         self._publish, self._recording = publish, recording
-        self.publishers = {}
+        self.publishers, self.tree = {}, None     # tree: /tf's, where tf2_msgs is built
         if rate <= 0.0:
             return
         self.messages = VizMessages(sim, frame_id)
         self.arrows = ContactArrows(sim, frame_id) if sim.scene.contact is not None \
             or sim.scene.ground is not None else None
-        self.tree = TransformTree(sim, frame_id) if tf_available() else None
+        self.tree = TransformTree(sim, frame_id) if interfaces_built('tf2_msgs') else None
         keys = self.KEYS + (('tf', 'tf_static') if self.tree is not None else ())
         self.publishers = {key: publisher(key) for key in keys}
 
     def publish_static(self, t_ns: int) -> None:
         """Publish (and record) /tf_static once: the frames that never move in their parent."""
-        if self.publishers and self.tree is not None:
+        if self.tree is not None:
             self._publish(self.publishers['tf_static'], self.tree.static_message(0), t_ns)
 
     def publish(self, sim_time_ns: int, t_ns: int) -> None:
