@@ -26,9 +26,12 @@ from affine_joint_sim.physics.frames import POSE_COLUMNS
 from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
+from affine_joint_sim.physics.contact_model import refuse_touching
 from affine_joint_sim.physics.contact_report import active_contacts
 from affine_joint_sim.physics.model import build_model, largest_step_efforts
 from affine_joint_sim.physics.newton import HALVINGS
+from affine_joint_sim.physics.pair_geometry import pair_gap
+from affine_joint_sim.placement import body_rows, free_body
 from affine_joint_sim.poses import LinkFrames, rigid_transforms
 from affine_joint_sim.scene import Scene
 from affine_joint_sim.sensors import SensorSet
@@ -322,6 +325,48 @@ class Stepper:
         self._downloads.stale()
         self._contacts = None          # computed again when next asked for
         self._steps = 0
+
+    def set_body_state(self, name: str, pose, linear_velocity=(0.0, 0.0, 0.0),
+                       angular_velocity=(0.0, 0.0, 0.0), env: int = 0) -> None:
+        """Place free body ``name`` (not fixed, in no joint) at once, between steps, in
+        environment ``env``: ``pose`` the 4×4 world transform of its frame (as
+        link_transforms gives it: the link of that name in a URDF scene, else the body's
+        origin), ``linear_velocity`` [m/s] of that frame's origin and ``angular_velocity`` ω
+        [rad/s], world frame. The environment's next step is a BDF1 start step, as after a
+        reset (BDF2's history of the placed body is gone); the lagged contact forces of the
+        body's pairs are dropped (the next step lags its own). Raises KeyError or ValueError
+        naming what is wrong, SceneError if the body would be inside something it may touch;
+        nothing changes then."""
+        if int(env) != env or not 0 <= env < self._envs:
+            raise ValueError(f'env must be an integer in [0, {self._envs}), got {env!r}')
+        b = free_body(self.scene, name)
+        links = self._links
+        local = links.local[links.names.index(name)] if name in links.names else np.eye(4)
+        q_row, v_row = body_rows(pose, local, linear_velocity, angular_velocity)
+        q = self._read('q')[env].astype(np.float64)
+        q[b] = q_row
+        host = self._host
+        if host.has_contact:
+            refuse_touching(self.scene, q, vars(host), host.static_names, body=b,
+                            verb='would be', rule='a body is placed where it touches nothing')
+        state, scratch = self._state, self._scratch
+        for array, row in ((state.q, q_row), (state.q_prev, q_row), (scratch.q_n, q_row),
+                           (state.v, v_row), (state.v_prev, v_row)):
+            rows = array.numpy()
+            rows[env, b] = row
+            self._store(array, rows)
+        for array in (scratch.friction_normal, scratch.normal_damping):
+            lagged = array.numpy()
+            for p in np.flatnonzero(lagged[env]):      # none without contact
+                gap = pair_gap(vars(host), q, int(p))
+                if b in (gap.body, gap.other):
+                    lagged[env, p] = 0.0
+            self._store(array, lagged)
+        ready = state.history_ready.numpy()
+        ready[env] = 0
+        self._store(state.history_ready, ready)
+        self._downloads.stale()
+        self._contacts = None
 
     @property
     def angles(self) -> np.ndarray:
@@ -641,6 +686,12 @@ class Stepper:
                 + '; a stiff drive pulls its joint most of the way in one step: move the '
                 'target in smaller steps or lower the drive\'s strength_ratio')
         return 'reduce dt or the torques'
+
+    def _store(self, array, rows: np.ndarray) -> None:
+        """Store ``rows``, changed from ``array.numpy()`` (a view on the CPU, a copy on a GPU),
+        back into ``array``."""
+        if not self.device.is_cpu:
+            array.assign(rows)
 
     def _say(self, message: str, stacklevel: int) -> None:
         """Report a problem: to ``on_problem``, else as a SimulationWarning attributed to the

@@ -102,3 +102,12 @@ def test_tiny_runs_write_their_tables_csv_and_plots(tmp_path):
     for name in ('perf.md', 'scaling.md', 'scaling.png', 'batch.md', 'batch.png'):
         assert (tmp_path / name).stat().st_size > 0
     assert 'exponents' in (tmp_path / 'scaling.md').read_text()
+
+
+def test_the_view_cost_row_times_a_node_in_process():
+    from affine_joint_sim.bench import ros_loop
+
+    row = ros_loop.view_cost('pendulum', ros_loop.QUICK._replace(view_steps=20), rounds=1)
+    assert row['scene'] == 'pendulum' and row['topics'].startswith('markers, body_poses')
+    assert row['step_us'] > 0.0 and row['view_us'] > 0.0
+    assert row['share'] == pytest.approx(100.0 * row['view_us'] / row['step_us'])

@@ -115,6 +115,9 @@ def _two_controller_run(tmp_path, ros_node, wait_for, controllers, publishers):
     node = LoggedNode(tmp_path, ros_node, wait_for, '--scene', 'double_pendulum', '--mode',
                       'lockstep', '--lockstep-publishers', publishers, '--duration', '0.3')
     states = Inbox(ros_node, 'joint_states')
+    # the state at t = 0 first (published again while the node waits): a controller that
+    # answered it before this subscription matched would leave it unseen
+    assert wait_for(lambda: states.last is not None, timeout=30.0)
     started = [controllers('shoulder', 0.6, '--name', 'shoulder_controller'),
                controllers('elbow', -0.4, '--name', 'elbow_controller')]
     ended = wait_for(lambda: node.process.poll() is not None, timeout=60.0)
@@ -217,3 +220,32 @@ def test_fewer_controllers_than_lockstep_publishers_are_warned_about(
     assert wait_for(lambda: node.said('lockstep_publishers is 2 but 1 publisher(s) are matched'),
                     timeout=30.0)
     assert 'lonely_controller' in node.stop()
+
+
+def test_steps_requested_through_the_standard_wait_for_the_controller(
+        tmp_path, ros_node, wait_for, controllers):
+    """StepSimulation while paused in lockstep: every step applies the controller's answer to
+    the state before it (before, the steps ran at once and the answers came too late)."""
+    pytest.importorskip('simulation_interfaces', reason='simulation_interfaces not built')
+    from simulation_interfaces.msg import Result, SimulationState
+    from simulation_interfaces.srv import SetSimulationState, StepSimulation
+
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep')
+    states = Inbox(ros_node, 'joint_states')
+    assert wait_for(lambda: states.last is not None)     # t = 0, published while it waits
+    paused = call(ros_node, wait_for, SetSimulationState, '/affine_joint_sim/set_simulation_state',
+                  SetSimulationState.Request(state=SimulationState(
+                      state=SimulationState.STATE_PAUSED)))
+    assert paused.result.result == Result.RESULT_OK
+    controllers('shoulder', 0.5)
+    before = _latest_stamp(states)
+    stepped = call(ros_node, wait_for, StepSimulation, '/affine_joint_sim/step_simulation',
+                   StepSimulation.Request(steps=10))
+    assert stepped.result.result == Result.RESULT_OK, stepped.result.error_message
+    assert wait_for(lambda: _latest_stamp(states) == before + 10 * DT_NS)
+    by_stamp = {stamp_ns(m): m for m in states.messages}
+    for k in range(10):
+        state, after = by_stamp[before + k * DT_NS], by_stamp[before + (k + 1) * DT_NS]
+        pd = 20.0 * (0.5 - state.position[0]) - 2.0 * state.velocity[0]
+        assert after.effort[0] == pytest.approx(pd, rel=1e-12), k
+    assert 'Traceback' not in node.stop()

@@ -133,3 +133,66 @@ def test_the_simulate_steps_action_steps_with_feedback(sim, ros_node, wait_for):
     assert [(f.completed_steps, f.remaining_steps) for f in feedback] == \
         [(1, 3), (2, 2), (3, 1), (4, 0)]
     assert wait_for(lambda: stamp_ns(states.last) == before + 4 * DT_NS)
+
+
+def _transforms(bag, topic) -> list:
+    """The TFMessages on ``topic`` of a bag (decoded: CDR's padding bytes may differ)."""
+    from rclpy.serialization import deserialize_message
+    from rosbags.rosbag2 import Reader
+    from tf2_msgs.msg import TFMessage
+
+    with Reader(bag) as reader:
+        wanted = [c for c in reader.connections if c.topic == topic]
+        return [deserialize_message(bytes(raw), TFMessage)
+                for _, _, raw in reader.messages(wanted)]
+
+
+def test_a_placed_body_is_recorded_and_replays_exactly(sim, ros_node, wait_for, tmp_path):
+    from geometry_msgs.msg import Pose
+    from simulation_interfaces.msg import EntityState, Result, SimulationState, \
+        SimulatorFeatures
+
+    from helpers.cli import cli
+
+    bag = tmp_path / 'placed'
+    child = sim('--scene', 'ramp', '--mode', 'fast', '--record', bag)
+    assert SimulatorFeatures.ENTITY_STATE_SETTING in \
+        _call(ros_node, wait_for, 'get_simulator_features').features.features
+    _call(ros_node, wait_for, 'set_simulation_state',
+          state=SimulationState(state=SimulationState.STATE_PAUSED))
+    _call(ros_node, wait_for, 'step_simulation', steps=3)
+
+    def placed(entity, z=1.0, w=math.cos(0.2), frame_id='world'):
+        state = EntityState(pose=Pose())
+        state.header.frame_id = frame_id
+        state.pose.position.x, state.pose.position.z = 0.6, z
+        state.pose.orientation.z, state.pose.orientation.w = math.sin(0.2), w
+        state.twist.linear.x, state.twist.angular.z = -0.5, 2.0
+        return _call(ros_node, wait_for, 'set_entity_state', entity=entity, state=state).result
+
+    assert placed('box').result == Result.RESULT_OK
+    got = _call(ros_node, wait_for, 'get_entity_state', entity='box').state
+    assert (got.pose.position.x, got.pose.position.z) == pytest.approx((0.6, 1.0), abs=1e-12)
+    assert (got.pose.orientation.z, got.pose.orientation.w) == \
+        pytest.approx((math.sin(0.2), math.cos(0.2)), abs=1e-12)
+    assert (got.twist.linear.x, got.twist.angular.z) == pytest.approx((-0.5, 2.0), abs=1e-12)
+    for entity, z, w, frame, code in (
+            ('ramp', 1.0, math.cos(0.2), 'world', Result.RESULT_OPERATION_FAILED),   # fixed
+            ('box', 0.01, math.cos(0.2), 'world', 101),                 # inside the ground
+            ('box', 1.0, 1.0, 'world', 101),                            # |q| = 1.02
+            ('box', 1.0, math.cos(0.2), 'map', Result.RESULT_FEATURE_UNSUPPORTED),
+            ('nobody', 1.0, math.cos(0.2), 'world', Result.RESULT_NOT_FOUND)):
+        refused = placed(entity, z, w, frame)
+        assert refused.result == code and refused.error_message, (entity, z, w, frame)
+    _call(ros_node, wait_for, 'step_simulation', steps=20)
+    fell = _call(ros_node, wait_for, 'get_entity_state', entity='box').state
+    assert fell.pose.position.x == pytest.approx(0.6 - 0.5 * 0.2, abs=1e-3)
+    assert fell.pose.position.z == pytest.approx(1.0 - 0.5 * 9.81 * 0.2 ** 2, abs=2e-3)
+    assert 'Traceback' not in child.stop()
+
+    out = tmp_path / 'again'
+    replayed = cli('replay', bag, '--out', out)
+    assert replayed.returncode == 0, replayed.stdout + replayed.stderr
+    recorded = _transforms(bag, '/tf')
+    assert len(recorded) >= 3 and _transforms(out, '/tf') == recorded
+    assert _transforms(out, '/tf_static') == _transforms(bag, '/tf_static')

@@ -84,3 +84,50 @@ def test_a_bag_shows_the_run_to_foxglove_readers(tmp_path):
     assert times[0] == 0 and times[-1] == 1_000_000_000
     last = decoded['/markers'][-1][1].markers
     assert len(last) == 7 and last[0].header.stamp.sec == 1
+
+
+def test_views_are_computed_only_while_something_subscribes(ros_node):
+    """Nothing subscribed and nothing recorded: a view tick computes nothing and asks DDS
+    nothing (matched events count the subscriptions); a viewer that comes gets the views, and
+    when it goes they stop."""
+    import time
+
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from affine_joint_sim.ros.node import SimNode
+
+    node = SimNode(context=ros_node.context, parameter_overrides=[
+        Parameter('scene', value='pendulum'), Parameter('viz_rate', value=30.0)])
+    executor = SingleThreadedExecutor(context=ros_node.context)
+    executor.add_node(node)
+    executor.add_node(ros_node)
+    computed, update, now = [], node.viz.messages.update, [0]
+    node.viz.messages.update = lambda t: computed.append(t) or update(t)
+
+    def tick_until(predicate):
+        deadline = time.monotonic() + 10.0
+        while not predicate() and time.monotonic() < deadline:
+            now[0] += 40_000_000            # every tick due at 30 Hz
+            node.viz.publish(now[0], now[0])
+            executor.spin_once(timeout_sec=0.05)
+        return predicate()
+
+    try:
+        for _ in range(10):
+            now[0] += 40_000_000
+            node.viz.publish(now[0], now[0])
+        assert computed == [] and not node.viz.watched
+        markers = Inbox(ros_node, 'markers')
+        assert tick_until(lambda: markers.messages)
+        assert node.viz.watched and computed
+        ros_node.destroy_subscription(markers.sub)
+        assert tick_until(lambda: not node.viz.watched)
+        seen = len(computed)
+        for _ in range(10):
+            now[0] += 40_000_000
+            node.viz.publish(now[0], now[0])
+        assert len(computed) == seen
+    finally:
+        executor.shutdown()
+        node.destroy_node()

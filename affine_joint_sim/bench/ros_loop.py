@@ -1,4 +1,5 @@
-"""The node over DDS: joint_states rate in ``fast`` mode, command-to-state latency in ``lockstep``.
+"""The node over DDS: joint_states rate in ``fast`` mode, command-to-state latency in ``lockstep``,
+and in process what the views (markers, body_poses, /tf) add to a step when nothing subscribes.
 
 The node runs in a child process (``affine-joint-sim run``); this process subscribes (and, for
 lockstep, answers every state with a ``joint_commands`` message, as a controller would).
@@ -22,13 +23,15 @@ __all__ = ['add_parser', 'client', 'node_process', 'run', 'spin_until']
 class Settings(NamedTuple):
     fast_seconds: float         # wall seconds of each fast-mode run (about)
     lockstep_steps: int         # lockstep round trips measured
+    repeats: int                # fast-mode runs of each row, interleaved (the median shown)
+    view_steps: int             # in-process node steps (and view ticks) timed per round
 
 
-FULL = Settings(fast_seconds=3.0, lockstep_steps=2000)
-QUICK = Settings(fast_seconds=1.0, lockstep_steps=300)
+FULL = Settings(fast_seconds=3.0, lockstep_steps=2000, repeats=5, view_steps=20000)
+QUICK = Settings(fast_seconds=1.0, lockstep_steps=300, repeats=1, view_steps=1000)
 SCENES = ('pendulum', 'arm')
-# fast-mode runs: (scene, viz_rate [Hz of sim time], a viewer subscribes markers and
-# body_poses); the 0 Hz rows price the views
+# fast-mode runs: (scene, viz_rate [Hz of sim time], a viewer subscribes markers,
+# body_poses and /tf); the 0 Hz rows price the views
 FAST_RUNS = (('pendulum', 30.0, True), ('pendulum', 30.0, False), ('pendulum', 0.0, False),
              ('arm', 30.0, True), ('arm', 30.0, False), ('arm', 0.0, False))
 
@@ -64,14 +67,18 @@ def spin_until(executor, predicate, timeout):
 def fast_rate(scene: str, settings: Settings, viz_rate: float = 30.0,
               viewer: bool = False) -> dict:
     """Steps/s the node publishes in fast mode, and how many one rclpy subscriber of
-    joint_states takes; with ``viewer`` the same process subscribes markers and body_poses
-    too (the node then makes them; a Python viewer on the same 2 cores also takes CPU)."""
+    joint_states takes; with ``viewer`` the same process subscribes markers, body_poses and
+    /tf (where tf2_msgs is built) too (the node then makes them; a Python viewer on the same
+    2 cores also takes CPU)."""
+    from affine_joint_sim.ros.topics import interfaces_built
+
     node, executor, topics = client()
     received = []
     states = topics['joint_states']
     node.create_subscription(states.msg_class, states.name(),
                              lambda m: received.append(time.monotonic()), states.qos)
-    for key in ('markers', 'body_poses') if viewer else ():
+    viewed = ('markers', 'body_poses') + (('tf',) if interfaces_built('tf2_msgs') else ())
+    for key in viewed if viewer else ():
         node.create_subscription(topics[key].msg_class, topics[key].name(), lambda m: None,
                                  topics[key].qos)
     # Long enough in sim time for ~fast_seconds of wall time at the measured rates.
@@ -124,9 +131,50 @@ def lockstep_latency(scene: str, settings: Settings) -> dict:
             'loop_steps_per_s': (len(answered) - 1) / (answered[-1] - answered[0])}
 
 
+def view_cost(scene: str, settings: Settings, rounds: int = 5) -> dict:
+    """In process, nothing subscribed and nothing recorded: a node step in ``fast`` mode
+    (state published, views at 30 Hz of sim time included) and the views' share of it, timed
+    on their own over the same sim times (median of ``rounds``) [µs]."""
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from affine_joint_sim.ros.node import SimNode
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = SimNode(context=context, parameter_overrides=[
+        Parameter('scene', value=scene), Parameter('mode', value='fast'),
+        Parameter('viz_rate', value=30.0)])
+    steps, dt_ns = settings.view_steps, round(node.sim.dt * 1e9)
+    step_us, view_us = [], []
+    try:
+        node.reset()
+        for _ in range(rounds):
+            start = time.perf_counter()
+            for _ in range(steps):
+                node.step()
+            step_us.append((time.perf_counter() - start) / steps * 1e6)
+            start = time.perf_counter()
+            for k in range(steps):
+                node.viz.publish(k * dt_ns, k * dt_ns)
+            view_us.append((time.perf_counter() - start) / steps * 1e6)
+    finally:
+        node.destroy_node()
+        context.try_shutdown()
+    step, view = statistics.median(step_us), statistics.median(view_us)
+    return {'scene': scene, 'topics': ', '.join(node.viz.publishers), 'step_us': step,
+            'view_us': view, 'share': 100.0 * view / step}
+
+
+VIEW_COLUMNS = [Column('scene', 'scene'), Column('topics', 'view topics (none subscribed)'),
+                Column('step_us', 'node step [µs]', '{:.1f}'),
+                Column('view_us', 'views per step [µs]', '{:.2f}'),
+                Column('share', 'share [%]', '{:.1f}')]
 FAST_COLUMNS = [Column('scene', 'scene'), Column('viz_rate', 'markers [Hz sim]', '{:g}'),
                 Column('viewer', 'viewer subscribed'),
-                Column('published_per_s', 'joint_states published/s (node)', '{:.0f}'),
+                Column('runs', 'runs'),
+                Column('published_per_s', 'joint_states published/s (node, median)', '{:.0f}'),
+                Column('published_range', 'range'),
                 Column('received_per_s', 'received/s (one rclpy subscriber)', '{:.0f}')]
 LOCKSTEP_COLUMNS = [Column('scene', 'scene'), Column('round_trips', 'round trips'),
                     Column('median_ms', 'median [ms]', '{:.2f}'),
@@ -134,11 +182,31 @@ LOCKSTEP_COLUMNS = [Column('scene', 'scene'), Column('round_trips', 'round trips
                     Column('loop_steps_per_s', 'closed-loop steps/s', '{:.0f}')]
 
 
+def _median_runs(settings: Settings) -> list[dict]:
+    """Each FAST_RUNS row ``repeats`` times, the rows interleaved (a machine that slows down
+    for a while slows every row alike); per row the median rates and the published range."""
+    runs = [[] for _ in FAST_RUNS]
+    for _ in range(settings.repeats):
+        for row, (scene, rate, viewer) in zip(runs, FAST_RUNS):
+            row.append(fast_rate(scene, settings, rate, viewer))
+    medians = []
+    for row in runs:
+        published = [r['published_per_s'] for r in row]
+        medians.append(dict(row[0], runs=len(row),
+                            published_per_s=statistics.median(published),
+                            published_range=f'{min(published):.0f}–{max(published):.0f}',
+                            received_per_s=statistics.median(r['received_per_s'] for r in row)))
+    return medians
+
+
 def run(results: Path, devices: list[str], settings: Settings) -> None:
     """Measure both on the CPU node (the DDS side does not depend on the Warp device)."""
     use_loopback_dds()
-    fast = [fast_rate(scene, settings, rate, viewer) for scene, rate, viewer in FAST_RUNS]
+    views = [view_cost(scene, settings) for scene in SCENES]
+    fast = _median_runs(settings)
     lockstep = [lockstep_latency(scene, settings) for scene in SCENES]
+    publish(results, 'ros_views', '### views at 30 Hz of sim time with nothing subscribed '
+            '(in process, fast mode)\n\n' + markdown_table(views, VIEW_COLUMNS) + '\n', views)
     publish(results, 'ros_fast', '### joint_states rate, fast mode (CPU, dt 0.01 s)\n\n' +
             markdown_table(fast, FAST_COLUMNS) + '\n', fast)
     publish(results, 'ros_lockstep', '### lockstep: joint_commands published → next '

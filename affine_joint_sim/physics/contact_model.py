@@ -25,7 +25,8 @@ from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['CYLINDER_RIM_POINTS', 'combined_friction', 'contact_arrays', 'tangent']
+__all__ = ['CYLINDER_RIM_POINTS', 'combined_friction', 'contact_arrays', 'refuse_touching',
+           'tangent']
 
 CYLINDER_RIM_POINTS = 16
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0)
@@ -183,8 +184,7 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
                   body_friction=np.array([[combined_friction(ma, mb) for mb in body_mu]
                                           for ma in body_mu], dtype=np.float64).reshape(n, n))
     names += shape_names + [scene.bodies[f].name for f in fixed.edge_owner + fixed.vertex_owner]
-    _refuse_overlap(scene, q0, arrays)
-    _refuse_touching(scene, q0, arrays, names)
+    refuse_touching(scene, q0, arrays, names)
     return arrays, names
 
 
@@ -272,28 +272,43 @@ class _Fixed:
                     surface_vertex_end=np.array(self.vertex_ends, dtype=np.int32))
 
 
-def _refuse_touching(scene, q0, arrays, names) -> None:
-    """SceneError naming the body and the half-space, shape, fixed body or other body if a
-    pair that may touch starts at distance ≤ 0."""
-    gaps = [pair_gap(arrays, q0, int(p)) for p in near_pairs(arrays, q0, 0.0)]
-    inside = [gap for gap in gaps if gap.distance <= 0.0]
+_STARTS = 'a scene with contact must start with nothing touching'
+
+
+def refuse_touching(scene, q, arrays, names, body: int | None = None, verb: str = 'starts',
+                    rule: str = _STARTS) -> None:
+    """SceneError naming the body, how deep it is (``verb``: "body 'a' starts 0.01 m inside
+    ...") and what it is inside (a half-space, shape, fixed body or other body), then ``rule``,
+    if a pair that may touch is at distance ≤ 0 at states ``q`` (n_bodies, 12), or a contact
+    point of a body is inside (or on) the convex geometry of another it may touch (their
+    distances, unsigned between two moving bodies, cannot tell a point inside from one
+    outside). With ``body``, only the pairs that body is part of. ``arrays``: the contact model
+    fields (contact_arrays, or a HostModel's), ``names``: its static things' names."""
+    inside = _overlap(scene, q, arrays, body) or _touching(scene, q, arrays, names, body)
+    if inside is not None:
+        name, depth, what = inside
+        raise SceneError(f'body {name!r} {verb} {depth:.6g} m inside {what}: {rule}')
+
+
+def _touching(scene, q, arrays, names, body) -> tuple | None:
+    """(body name, depth [m], what it is inside) of the deepest pair at distance ≤ 0 (of
+    ``body`` if given), or None."""
+    gaps = [pair_gap(arrays, q, int(p)) for p in near_pairs(arrays, q, 0.0)]
+    inside = [gap for gap in gaps if gap.distance <= 0.0
+              and body in (None, gap.body, gap.other)]
     if not inside:
-        return
+        return None
     gap = min(inside, key=lambda g: g.distance)
     other = names[gap.static] if gap.other is None else f'body {scene.bodies[gap.other].name!r}'
-    raise SceneError(f'body {scene.bodies[gap.body].name!r} starts {-gap.distance:.6g} m '
-                     f'inside {other} (distance {gap.distance:.6g} m): a scene '
-                     'with contact must start with nothing touching')
+    return scene.bodies[gap.body].name, -gap.distance, f'{other} (distance {gap.distance:.6g} m)'
 
 
-def _refuse_overlap(scene, q0, arrays) -> None:
-    """SceneError naming both bodies and the deepest overlap if a contact point of a body
-    starts inside (or on) the convex geometry of another it may touch: their distances,
-    unsigned between two moving bodies, cannot tell a point that starts inside from one
-    outside."""
+def _overlap(scene, q, arrays, only) -> tuple | None:
+    """(body name, depth [m], the other body) of the deepest contact point inside another
+    body's convex geometry (of or in ``only`` if given), or None."""
     if not len(arrays['touch_a']):
-        return
-    shapes, owners, _ = static_shapes(scene.bodies, q0, _geometries, moving=True)
+        return None
+    shapes, owners, _ = static_shapes(scene.bodies, q, _geometries, moving=True)
     rests, radii = arrays['point_rest'], arrays['point_radius']
     deepest = None
     for s, owner in enumerate(owners):
@@ -302,16 +317,15 @@ def _refuse_overlap(scene, q0, arrays) -> None:
         if kind == SHAPE_KINDS['triangle']:
             continue
         for i, body in enumerate(arrays['point_body']):
-            if arrays['touch_slot'][body, owner] < 0:
+            if arrays['touch_slot'][body, owner] < 0 or only not in (None, body, owner):
                 continue
-            x = q0[body, :3] + pm.matmul(q0[body, 3:].reshape(3, 3), rests[i])
+            x = q[body, :3] + pm.matmul(q[body, 3:].reshape(3, 3), rests[i])
             if pm.norm(x - centre) > pm.norm(size) + size[0] + radii[i]:
                 continue                # beyond every shape's bounding sphere
             depth = radii[i] - shape_separation(kind, rotation, centre, size, x)[0]
             if depth >= 0.0 and (deepest is None or depth > deepest[0]):
                 deepest = depth, body, owner
-    if deepest is not None:
-        depth, body, owner = deepest
-        raise SceneError(f'body {scene.bodies[body].name!r} starts {depth:.6g} m inside body '
-                         f'{scene.bodies[owner].name!r}: a scene with contact must start with '
-                         'nothing touching')
+    if deepest is None:
+        return None
+    depth, body, owner = deepest
+    return scene.bodies[body].name, depth, f'body {scene.bodies[owner].name!r}'

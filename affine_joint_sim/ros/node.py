@@ -22,6 +22,7 @@ import yaml
 from rclpy.duration import Duration
 from rclpy.exceptions import InvalidParameterTypeException, InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException, ShutdownException
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSCompatibility, qos_check_compatible
@@ -42,6 +43,7 @@ from affine_joint_sim.ros.recording import RunRecording
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
 from affine_joint_sim.ros.sensor_messages import SensorMessages
 from affine_joint_sim.ros.simulation_services import SimulationServices
+from affine_joint_sim.ros.step_grant import StepGrant
 from affine_joint_sim.ros.topics import (ANSWER_KEYS, JOINT_COMMAND_KEYS, SENSOR_KEYS,
                                          interfaces_built, load_topics)
 from affine_joint_sim.ros.viz import VizPublisher
@@ -136,6 +138,7 @@ class SimNode(Node):
         self._requests: list[dict] = []        # work for the stepping thread (services, params)
         self._stepping_thread = None
         self._stopping = False                 # the run is over: requests are refused
+        self.grant = StepGrant()               # steps granted while paused (the standard)
         self.stop_requested = threading.Event()    # set by SIGINT/SIGTERM (see main)
         self._last_warning: dict[str, float] = {}
         self._bag_topics: list[BagTopic] = []      # every topic published or taken
@@ -234,12 +237,15 @@ class SimNode(Node):
                                       'built in this environment (make venv builds it where '
                                       'cmake and a C++ compiler are)')
 
-    def _publisher(self, key: str, item: str | None = None):
+    def _publisher(self, key: str, item: str | None = None, on_matched=None):
         """The publisher of topic ``key`` (topics.yaml; ``item``: the sensor of a per-sensor
         topic), listed for the bag: every topic the node publishes is created here, so the
-        recorder knows it before its first message."""
+        recorder knows it before its first message. ``on_matched(status)``: called (in the
+        callback thread) when a subscription matches or goes (``status.current_count``)."""
         topic = self.topics[key]
-        publisher = self.create_publisher(topic.msg_class, topic.name(item), topic.qos)
+        events = None if on_matched is None else PublisherEventCallbacks(matched=on_matched)
+        publisher = self.create_publisher(topic.msg_class, topic.name(item), topic.qos,
+                                          event_callbacks=events)
         self._bag_topics.append(BagTopic(publisher.topic_name, topic.type, topic.qos))
         return publisher
 
@@ -495,11 +501,26 @@ class SimNode(Node):
         self.recording.flush_if_due()
 
     def _wait_before_step(self) -> float:
-        """Wall seconds until the next step is due (inf while paused or awaiting lockstep)."""
-        wait = self.loop.wait_before_step(self.config['mode'], self.paused)
-        if wait == float('inf') and not self.paused:
+        """Wall seconds until the next step is due (inf while paused without granted steps or
+        awaiting lockstep; granted steps are not paced)."""
+        held = self.paused and not self.grant.active
+        mode = self.config['mode']
+        wait = self.loop.wait_before_step('fast' if mode == 'realtime' and self.paused else mode,
+                                          held)
+        if wait == float('inf') and not held:
             self._keep_lockstep_alive()
         return wait
+
+    def grant_steps(self, count: int):
+        """Let the loop take ``count`` steps while paused (``ros.step_grant``): the future
+        of their end (True; False if the node stops first), or None while another grant runs
+        or the node stops."""
+        with self._wake:
+            if self._stopping:
+                return None
+            done = self.grant.open(count, self.executor)
+            self._wake.notify()
+        return done
 
     def _keep_lockstep_alive(self):
         """While lockstep waits: publish the waiting state again (for controllers that joined
@@ -614,6 +635,7 @@ class SimNode(Node):
                         self._wake.wait(min(wait, 0.1))
                         continue
                     self.step()
+                    self.grant.took_step()
                 self._check_rate()
                 now = time.monotonic()
                 if now - yielded > _YIELD_EVERY:
@@ -623,6 +645,7 @@ class SimNode(Node):
         finally:
             with self._wake:
                 self._serve_requests(stopping=True)
+                self.grant.cancel()
             executor.shutdown(timeout_sec=1.0)
             spinner.join(timeout=1.0)
         if failure:

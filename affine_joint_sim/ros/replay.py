@@ -25,6 +25,7 @@ from rclpy.duration import Duration
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.rosbag2 import Reader
 
+from affine_joint_sim.placement import PLACEMENT_EVENT, place
 from affine_joint_sim.quiet_warp import quiet_warp
 from affine_joint_sim.resources import scene_path as packaged_scene_path
 from affine_joint_sim.ros.bag_metadata import UNLISTED_BAG, unlisted_bag
@@ -36,7 +37,9 @@ from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.sensor_messages import (SensorMessages, difference, message_values,
                                                   sensor_values)
-from affine_joint_sim.ros.topics import COMMAND_KEYS, SENSOR_KEYS, load_topics, message_class
+from affine_joint_sim.ros.topics import (COMMAND_KEYS, SENSOR_KEYS, interfaces_built,
+                                         load_topics, message_class)
+from affine_joint_sim.ros.transforms import TransformTree
 from affine_joint_sim.scene import Scene, SceneError, topic_token
 
 __all__ = ['ReplayError', 'Divergence', 'read_bag', 'replay', 'publish']
@@ -58,7 +61,8 @@ class Divergence:
         max_angle: max |Δθ| per joint [rad] (wrapped joints compare modulo 2π).
         max_velocity: max |Δω| per joint [rad/s].
         states: number of recorded states compared.
-        dropped: recorded commands the command buffer refused (as the node did).
+        dropped: recorded commands the command buffer refused (as the node did), and
+            recorded placements the scene refused (a what-if with another scene).
         sensors: per sensor compared, the largest |Δ| of its values, each in its unit
             (orientation quaternion, rad/s, m/s²; N, N·m).
         sensor_messages: number of recorded sensor messages compared.
@@ -93,7 +97,7 @@ class Divergence:
             lines.append('sensors recorded but not in the scene, not compared: '
                          + ', '.join(self.uncompared))
         if self.dropped:
-            lines.append(f'{len(self.dropped)} recorded commands refused (as the node did), '
+            lines.append(f'{len(self.dropped)} recorded commands or placements refused, '
                          f'first: {self.dropped[0]}')
         return '\n'.join(lines)
 
@@ -297,6 +301,16 @@ class _Resimulation:
         self.loop.step()
         self.previous, self.current = self.current, self._sample()
 
+    def place(self, bag_ns: int, event: dict):
+        """Apply a recorded placement (SetEntityState) after the step at or after its time; one
+        the scene refuses (a what-if with another scene) is counted in ``dropped``."""
+        self._reach(bag_ns - self.epoch_ns)
+        try:
+            place(self.sim, event)
+        except (KeyError, ValueError) as exc:
+            self.dropped.append(f'placement of {event["entity"]!r} at '
+                                f'{(bag_ns - self.epoch_ns) * 1e-9:.6f} s: {exc}')
+
     def _reach(self, stamp_ns: int) -> float | None:
         """Step until the current sample is at or after ``stamp_ns`` (since the last reset);
         the fraction of the way from the previous sample to the current one, None at it."""
@@ -373,6 +387,8 @@ def _replay_messages(bag, run, writer, divergence, scene):
             started = started or event.get('event') == 'start'
             if event.get('event') == 'reset' and (run.sim.step_count or m.t_ns != run.epoch_ns):
                 run.reset(m.t_ns)
+            if event.get('event') == PLACEMENT_EVENT:
+                run.place(m.t_ns, event)
             if 'command_timeout' in event:
                 run.buffer.command_timeout = float(event['command_timeout'])
             if 'command_joints' in event:
@@ -417,7 +433,8 @@ def _compare_sensor(m: _Message, run: _Resimulation, divergence: Divergence) -> 
 
 class _OutBag:
     """The re-simulated run as a bag: its scene, the recorded commands and events, every new
-    state and its sensors' messages."""
+    state and its sensors' messages, and where the recorded bag has /tf (and tf2_msgs is
+    built here): /tf_static once and /tf at the first state at or after each recorded one."""
 
     def __init__(self, path, storage, bag: RecordedBag, scene: Scene):
         topics = load_topics()
@@ -437,6 +454,14 @@ class _OutBag:
                               for name, _, key in self.sensors.sensors}
         bag_topics += [BagTopic(self.sensor_topics[name], topics[key].type, topics[key].qos)
                        for name, _, key in self.sensors.sensors]
+        self.tf_times = [m.t_ns for m in bag.messages if m.kind == 'tf']
+        self.tf_due = 0         # the first recorded /tf not yet written again
+        self.tf_frame = _root_frame(bag) if self.tf_times else None
+        if self.tf_frame is not None:
+            self.tf_topics = {key: self._name(bag, key, topics) for key in ('tf', 'tf_static')}
+            bag_topics += [BagTopic(name, topics[key].type, topics[key].qos)
+                           for key, name in self.tf_topics.items()]
+        self.tree = None
         try:
             self.recorder = BagRecorder(path, storage, bag_topics)
         except (FileExistsError, OSError) as exc:
@@ -459,6 +484,37 @@ class _OutBag:
         if self.sensors:
             for name, raw in self.sensors.fill(sim.sensors, stamp_ns):
                 self.recorder.write(self.sensor_topics[name], bag_ns, raw)
+        if self.tf_frame is not None:
+            self._transforms(bag_ns, stamp_ns, sim)
+
+    def _transforms(self, bag_ns, stamp_ns, sim):
+        """/tf_static with the first state, /tf when a recorded one is due."""
+        if self.tree is None:
+            self.tree = TransformTree(sim, self.tf_frame)
+            self.recorder.write(self.tf_topics['tf_static'], bag_ns, self.tree.static_message(0))
+        due = self.tf_due
+        while self.tf_due < len(self.tf_times) and self.tf_times[self.tf_due] <= bag_ns + _EPS_NS:
+            self.tf_due += 1
+        if self.tf_due > due:
+            self.recorder.write(self.tf_topics['tf'], bag_ns,
+                                self.tree.moving_message(stamp_ns))
+
+
+def _root_frame(bag: RecordedBag) -> str | None:
+    """The frame the recorded transforms hang from (in the first /tf and /tf_static: the
+    parent that is no child), or None where tf2_msgs is not built here (a note says so)."""
+    if not interfaces_built('tf2_msgs'):
+        print('note: the bag has /tf but tf2_msgs is not built here (make venv builds it): '
+              'the re-simulated bag has none', file=sys.stderr)
+        return None
+    firsts = {}
+    for m in bag.messages:
+        if m.kind in ('tf', 'tf_static'):
+            firsts.setdefault(m.kind, m)
+    recorded = [t for m in firsts.values() for t in m.decode().transforms]
+    children = {t.child_frame_id for t in recorded}
+    return next((t.header.frame_id for t in recorded if t.header.frame_id not in children),
+                'world')
 
 
 def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',

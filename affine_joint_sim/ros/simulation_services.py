@@ -4,23 +4,29 @@ on the node, where make venv built the package: services under the node's name
 
 Served: GetSimulatorFeatures, GetSimulationState and SetSimulationState (playing, paused;
 stopped = paused at the initial state; quitting ends the run as Ctrl-C does), ResetSimulation
-(time and state together), StepSimulation and the SimulateSteps action (while paused, each step
-published and recorded like any other; the action gives feedback after each step and can be
-canceled), GetEntities (every body; ``filters.filter`` a regular expression on names) and
-GetEntityState (a body's pose and twist in ``frame_id``). Not served, and not listed in the
-features: spawning and deleting (a scene is fixed at start), setting entity states, worlds,
-named poses, bounds, tags and categories. Every answer fills the standard's ``Result`` (code
-and message).
+(time and state together), StepSimulation and the SimulateSteps action (while paused, taken by
+the node's loop as in play, ``ros.step_grant``: in lockstep each waits for the controllers;
+each step published and recorded like any other; the action gives feedback after each step
+and can be canceled), GetEntities (every body; ``filters.filter`` a regular expression on names),
+GetEntityState (a body's pose and twist in ``frame_id``) and SetEntityState (a free body's,
+``placement``: recorded as an event that replay applies again). Not served, and not listed in
+the features: spawning and deleting (a scene is fixed at start), worlds, named poses, bounds,
+tags and categories. Every answer fills the standard's ``Result`` (code and message).
 """
 
 import re
 
 import numpy as np
+from rclpy.callback_groups import ReentrantCallbackGroup
 
+from affine_joint_sim.placement import place, placement_event
 from affine_joint_sim.poses import rigid_transforms
 from affine_joint_sim.rotations import quaternion_from_matrix
+from affine_joint_sim.scene import SceneError
 
 __all__ = ['SimulationServices']
+
+_BUSY = 'another StepSimulation or SimulateSteps is running, or the node stops'
 
 
 class SimulationServices:
@@ -38,7 +44,10 @@ class SimulationServices:
                          f.SIMULATION_STATE_GETTING, f.SIMULATION_STATE_SETTING,
                          f.SIMULATION_STATE_PAUSE, f.STEP_SIMULATION_SINGLE,
                          f.STEP_SIMULATION_MULTIPLE, f.STEP_SIMULATION_ACTION,
-                         f.ENTITY_STATE_GETTING]
+                         f.ENTITY_STATE_GETTING, f.ENTITY_STATE_SETTING]
+        # their own group: while a step request awaits its steps, the node's other callbacks
+        # (the commands a lockstep step waits for) and these services go on in the one thread
+        group = ReentrantCallbackGroup()
         for name, kind, handler in (
                 ('get_simulator_features', srv.GetSimulatorFeatures, self._features),
                 ('get_simulation_state', srv.GetSimulationState, self._get_state),
@@ -46,12 +55,14 @@ class SimulationServices:
                 ('reset_simulation', srv.ResetSimulation, self._reset),
                 ('step_simulation', srv.StepSimulation, self._step),
                 ('get_entities', srv.GetEntities, self._entities),
-                ('get_entity_state', srv.GetEntityState, self._entity_state)):
-            node.create_service(kind, f'~/{name}', handler)
+                ('get_entity_state', srv.GetEntityState, self._entity_state),
+                ('set_entity_state', srv.SetEntityState, self._set_entity_state)):
+            node.create_service(kind, f'~/{name}', handler, callback_group=group)
         from rclpy.action import ActionServer, CancelResponse
         from simulation_interfaces.action import SimulateSteps
         self._action = ActionServer(node, SimulateSteps, '~/simulate_steps', self._simulate,
-                                    cancel_callback=lambda goal: CancelResponse.ACCEPT)
+                                    cancel_callback=lambda goal: CancelResponse.ACCEPT,
+                                    callback_group=group)
 
     @staticmethod
     def _result(response, code: int, message: str = ''):
@@ -108,24 +119,24 @@ class SimulationServices:
                                 'node stopping')
         return self._result(response, response.result.RESULT_OK)
 
-    def _step(self, request, response):
+    async def _step(self, request, response):
+        """``steps`` steps while paused, taken by the node's loop (``ros.step_grant``: in
+        lockstep each waits for the controllers); answered after the last."""
+        results = response.result
         if not self.node.paused:
-            return self._result(response, response.result.RESULT_OPERATION_FAILED,
+            return self._result(response, results.RESULT_OPERATION_FAILED,
                                 'not paused: set STATE_PAUSED first')
-
-        def steps():
-            for _ in range(request.steps):
-                self.node.step()
-
+        done = self.node.grant_steps(request.steps)
+        if done is None:
+            return self._result(response, results.RESULT_OPERATION_FAILED, _BUSY)
         self.stopped = False
-        if not self._between_steps(steps):
-            return self._result(response, response.result.RESULT_OPERATION_FAILED,
-                                'node stopping')
-        return self._result(response, response.result.RESULT_OK)
+        if not await done:
+            return self._result(response, results.RESULT_OPERATION_FAILED, 'node stopping')
+        return self._result(response, results.RESULT_OK)
 
-    def _simulate(self, goal):
-        """The SimulateSteps action: ``steps`` steps while paused, feedback after each, one
-        stepping-thread request per step (so other requests interleave); cancellable."""
+    async def _simulate(self, goal):
+        """The SimulateSteps action: ``steps`` steps while paused, granted one at a time
+        (as ``_step``), feedback after each; cancellable between two."""
         from simulation_interfaces.action import SimulateSteps
 
         result, total = SimulateSteps.Result(), goal.request.steps
@@ -140,10 +151,11 @@ class SimulationServices:
                 goal.canceled()
                 return self._result(result, result.result.RESULT_OK,
                                     f'canceled after {done - 1} steps')
-            if not self._between_steps(self.node.step):
+            granted = self.node.grant_steps(1)
+            if granted is None or not await granted:
                 goal.abort()
                 return self._result(result, result.result.RESULT_OPERATION_FAILED,
-                                    'node stopping')
+                                    _BUSY if granted is None else 'node stopping')
             feedback.completed_steps, feedback.remaining_steps = done, total - done
             goal.publish_feedback(feedback)
         goal.succeed()
@@ -200,3 +212,39 @@ class SimulationServices:
         t.linear.x, t.linear.y, t.linear.z = map(float, velocity)
         t.angular.x, t.angular.y, t.angular.z = map(float, omega)
         return self._result(response, response.result.RESULT_OK)
+
+    def _set_entity_state(self, request, response):
+        """Place a free body (``placement``): pose and twist in ``frame_id`` (or ''), the
+        acceleration ignored; recorded as an event; published with the next step."""
+        results, state = response.result, request.state
+        if request.entity not in self.node.sim.body_names:
+            return self._result(response, results.RESULT_NOT_FOUND,
+                                f'no body {request.entity!r} (GetEntities lists them)')
+        world = self.node.config['frame_id']
+        if state.header.frame_id not in ('', world):
+            return self._result(response, results.RESULT_FEATURE_UNSUPPORTED,
+                                f'header.frame_id {state.header.frame_id!r}: states are set in '
+                                f'{world!r} (or \'\', the same) only')
+        p, o, t = state.pose.position, state.pose.orientation, state.twist
+        try:
+            event = placement_event(request.entity, (p.x, p.y, p.z), (o.x, o.y, o.z, o.w),
+                                    (t.linear.x, t.linear.y, t.linear.z),
+                                    (t.angular.x, t.angular.y, t.angular.z))
+        except ValueError as exc:
+            return self._result(response, response.INVALID_POSE, f'state: {exc}')
+
+        def apply():
+            try:
+                place(self.node.sim, event)
+            except SceneError as exc:           # it would be inside something
+                return response.INVALID_POSE, str(exc)
+            except ValueError as exc:           # a fixed or jointed body
+                return results.RESULT_OPERATION_FAILED, str(exc)
+            self.node._event(event)
+            self.stopped = False
+            return results.RESULT_OK, ''
+
+        outcome = self.node._in_stepping_thread(apply)
+        if outcome is None:
+            return self._result(response, results.RESULT_OPERATION_FAILED, 'node stopping')
+        return self._result(response, *outcome)

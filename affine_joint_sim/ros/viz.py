@@ -153,7 +153,8 @@ class VizPublisher:
         publish: ``publish(publisher, msg or serialized bytes, t_ns)`` (publishes and records).
         recording: ``recording()`` says whether the run is being recorded: views nobody
             subscribes to and no bag records are not computed (a viewer that joins gets the
-            next one, at most 1/rate later).
+            next one, at most 1/rate later; subscriptions are counted from DDS's matched
+            events, so a view tick without either costs no call into DDS).
     """
 
     KEYS = ('markers', 'body_poses')
@@ -162,6 +163,7 @@ class VizPublisher:
         self.schedule = VizSchedule(rate)
         self._publish, self._recording = publish, recording
         self.publishers, self.tree = {}, None     # tree: /tf's, where tf2_msgs is built
+        self._matched = {}
         if rate <= 0.0:
             return
         self.messages = VizMessages(sim, frame_id)
@@ -169,7 +171,19 @@ class VizPublisher:
             or sim.scene.ground is not None else None
         self.tree = TransformTree(sim, frame_id) if interfaces_built('tf2_msgs') else None
         keys = self.KEYS + (('tf', 'tf_static') if self.tree is not None else ())
-        self.publishers = {key: publisher(key) for key in keys}
+        self._matched = dict.fromkeys(keys, 0)    # subscriptions matched, per topic
+        self.publishers = {key: publisher(key, on_matched=self._on_matched(key))
+                           for key in keys}
+
+    @property
+    def watched(self) -> bool:
+        """Whether some subscription to a view topic is matched (DDS's matched events)."""
+        return any(self._matched.values())
+
+    def _on_matched(self, key: str):
+        def matched(status):
+            self._matched[key] = status.current_count
+        return matched
 
     def publish_static(self, t_ns: int) -> None:
         """Publish (and record) /tf_static once: the frames that never move in their parent."""
@@ -180,8 +194,7 @@ class VizPublisher:
         """Publish (and record) the views of the current state if they are due."""
         if not self.publishers or not self.schedule.due(sim_time_ns):
             return
-        if not self._recording() and not any(p.get_subscription_count()
-                                             for p in self.publishers.values()):
+        if not self._recording() and not self.watched:
             return
         markers, poses = self.messages.update(sim_time_ns)
         self._publish(self.publishers['markers'], markers, t_ns)

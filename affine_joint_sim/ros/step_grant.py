@@ -1,0 +1,56 @@
+"""Steps granted while paused: the simulation standard's StepSimulation and SimulateSteps
+(README.md#the-simulation-standard).
+
+The node's loop takes granted steps as it takes steps in play, lockstep included (each waits
+for the controllers' answers to the state before it, so a controller stays in the loop), but
+unpaced (a realtime node steps them flat out, as Gazebo does). A future is done when the last
+one is, True, or False if the node stops first; the service that asked awaits it in the ROS
+executor, which goes on taking commands meanwhile. One grant at a time.
+"""
+
+from rclpy.task import Future
+
+__all__ = ['StepGrant']
+
+
+class StepGrant:
+    """The steps granted and not yet taken; guarded by the node's lock."""
+
+    def __init__(self):
+        self.remaining = 0
+        self._done = None
+        self._executor = None
+
+    def open(self, count: int, executor) -> Future | None:
+        """Grant ``count`` steps; the future of their end, or None while a grant runs.
+        ``executor``: the one awaiting the future (woken when it is done)."""
+        if self._done is not None:
+            return None
+        future = Future()
+        if count <= 0:
+            future.set_result(True)
+            return future
+        self.remaining, self._done, self._executor = count, future, executor
+        return future
+
+    @property
+    def active(self) -> bool:
+        return self.remaining > 0
+
+    def took_step(self) -> None:
+        """The loop took a step (while a grant runs: one of the granted)."""
+        if self.remaining:
+            self.remaining -= 1
+            if not self.remaining:
+                self._end(True)
+
+    def cancel(self) -> None:
+        """The node stops: a running grant ends False."""
+        if self._done is not None:
+            self._end(False)
+
+    def _end(self, result: bool) -> None:
+        done, self._done, self.remaining = self._done, None, 0
+        done.set_result(result)
+        if self._executor is not None:
+            self._executor.wake()       # the awaiting service runs on at its next wake
