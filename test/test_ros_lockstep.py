@@ -122,8 +122,12 @@ def _two_controller_run(tmp_path, ros_node, wait_for, controllers, publishers):
                controllers('elbow', -0.4, '--name', 'elbow_controller')]
     ended = wait_for(lambda: node.process.poll() is not None, timeout=60.0)
     output = node.stop()
+    codes = [p.poll() for p in started]
+    for process in started:             # else they answer the next run's first states
+        process.kill()
+        process.wait()
     assert ended, (f'the node did not end within 60 s (controllers\' exit codes: '
-                   f'{[p.poll() for p in started]}); its output:\n{output[-4000:]}')
+                   f'{codes}); its output:\n{output[-4000:]}')
     assert 'Traceback' not in output and '30 steps' in output, output
     by_stamp = {}
     for m in states.messages:
