@@ -272,12 +272,17 @@ _MOVABLE_KEYS = {'x0', 'x1', 'torque', 'enabled', 'torque_model', 'angle_mode', 
                  'limit', 'damping', 'drive', 'initial_position'}
 
 
+NEWTON_MAX_ITER = 32             # Newton iterations per step at most, by default
+NEWTON_MAX_ITER_CONTACT = 256    # the same in a scene with contact
+
+
 class Solver(StrictModel):
     """Speed/accuracy knobs (docs/physics.md#solver-settings)."""
 
     integrator: Literal['bdf1', 'bdf2'] = 'bdf2'
     newton_tol: PositiveFloat = 1.0e-4
-    newton_max_iter: Annotated[int, Field(ge=1, le=1000)] = 32
+    # None: Scene.newton_max_iter's default (more where the scene has contact)
+    newton_max_iter: Annotated[int, Field(ge=1, le=1000)] | None = None
     line_search: bool = True
     warm_start: bool = True
     precision: Literal['float64', 'float32'] = 'float64'
@@ -484,6 +489,16 @@ class Scene(SceneSettings):
                 problems.append((f'sensors[{i}].body', f'unknown {what} {sensor.body!r}; valid: '
                                  f'{", ".join(places)}'))
         return problems
+
+    @property
+    def newton_max_iter(self) -> int:
+        """Newton iterations per step at most: ``solver.newton_max_iter`` if given, else
+        NEWTON_MAX_ITER, or NEWTON_MAX_ITER_CONTACT in a scene with contact (a ground or a
+        ``contact`` entry), where an impact's barrier can take many more (docs/physics.md)."""
+        if self.solver.newton_max_iter is not None:
+            return self.solver.newton_max_iter
+        contact = self.contact is not None or self.ground is not None
+        return NEWTON_MAX_ITER_CONTACT if contact else NEWTON_MAX_ITER
 
     def articulations(self) -> tuple[list[int], set]:
         """(an articulation index per body: bodies joined by joints, directly or through

@@ -655,7 +655,7 @@ class Stepper:
             advice = (self._rejection_advice() if name in ('non_finite', 'angle_aliased')
                       else '')
             self._say(f't = {self.time:.6g} s: ' + _PROBLEMS[name].format(
-                max_iter=self.scene.solver.newton_max_iter, residual=residual, advice=advice),
+                max_iter=self.scene.newton_max_iter, residual=residual, advice=advice),
                 stacklevel=4)
 
     def _rejection_advice(self) -> str:

@@ -47,6 +47,16 @@ def test_defaults_and_exponent_without_sign():
     assert (joint.type, joint.limit, joint.drive, joint.damping) == ('revolute', None, None, 0.0)
 
 
+def test_newton_iterations_default_to_more_with_contact_unless_given():
+    plain = load(BASE)
+    assert plain.solver.newton_max_iter is None and plain.newton_max_iter == 32
+    grounded = load(BASE + 'ground: {height: -5.0}\n')
+    assert grounded.newton_max_iter == 256
+    given = load(BASE + 'ground: {height: -5.0}\nsolver: {newton_max_iter: 40}\n')
+    assert given.newton_max_iter == 40
+    assert Scene.from_yaml_text(given.to_yaml()).newton_max_iter == 40     # round trip
+
+
 @pytest.mark.parametrize('edit, path, hint', [
     (('parent: base', 'parent: nowhere'), 'joints[0].parent', 'valid: base, link'),
     (('child: link', 'child: base'), 'joints[0].child', 'must differ'),

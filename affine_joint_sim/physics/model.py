@@ -140,7 +140,7 @@ def build_model(scene) -> HostModel:
     values = dict(
         dt=scene.dt, gravity=gravity, has_gravity=int(np.any(gravity != 0.0)),
         integrator=BDF2 if scene.solver.integrator == 'bdf2' else BDF1,
-        newton_tol=scene.solver.newton_tol, newton_max_iter=scene.solver.newton_max_iter,
+        newton_tol=scene.solver.newton_tol, newton_max_iter=scene.newton_max_iter,
         line_search=int(scene.solver.line_search),
         warm_start=int(scene.solver.warm_start), state_coupling=int(state_coupling),
         body_fixed=fixed, body_mass=mass,
