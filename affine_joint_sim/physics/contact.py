@@ -154,6 +154,39 @@ def build(t) -> SimpleNamespace:
         return out
 
     @wp.func
+    def static_gap(model: Model, edge: int, s: int, centre: vec3, size: scalar):
+        """The gap [m] between a ball (``centre``, radius ``size``) and static edge ``s``
+        (``edge`` ≠ 0: the segment's nearest point to the centre) or static vertex ``s``."""
+        gap = zero
+        if edge != 0:
+            start_s = model.static_edge_a[s]
+            along = model.static_edge_b[s] - start_s
+            t = zero
+            if wp.dot(along, along) > zero:
+                t = wp.clamp(wp.dot(centre - start_s, along) / wp.dot(along, along), zero, one)
+            gap = wp.length(centre - start_s - t * along) - size - model.static_edge_radius[s]
+        else:
+            gap = wp.length(centre - model.static_vertex[s]) - size - model.static_vertex_radius[s]
+        return gap
+
+    @wp.func
+    def gather_static(model: Model, scratch: Scratch, env: int, ends: wp.array(dtype=int),
+                      edge: int, centre: vec3, size: scalar, reach: scalar, base: int, at: int):
+        """The static edges (``edge`` ≠ 0) or vertices within ``reach`` of a moving edge's or
+        face's ball (``centre``, ``size``), surface by surface (``ends``: each surface's end
+        in them; a surface whose bounding sphere is farther is skipped, ``near_surface``),
+        into near_pairs as pair ``base + s``; returns the next free index."""
+        s0 = int(0)
+        for g in range(model.surface_radius.shape[0]):
+            s1 = ends[g]
+            if near_surface(model, g, centre, size) < reach:
+                for s in range(s0, s1):
+                    if static_gap(model, edge, s, centre, size) < reach:
+                        at = add_near(model, scratch, env, base + s, reach, at)
+            s0 = s1
+        return at
+
+    @wp.func
     def gather_bodies(model: Model, scratch: Scratch, env: int, start: int):
         """The pairs of bodies within d̂ + both bodies' margins at q_n into near_pairs from
         index ``start``: per pair of bodies that may touch, whose bounding spheres are that
@@ -208,45 +241,19 @@ def build(t) -> SimpleNamespace:
                         at += 1
         statics_e = model.static_edge_a.shape[0]
         edges = model.edge_body.shape[0]
-        surfaces = model.surface_radius.shape[0]
         for e in range(edges):
             b = model.edge_body[e]
-            reach = model.contact_d_hat + scratch.body_margin[env, b]
             middle, size = edge_ball(model, scratch.q_n[env, b], e)
-            s0 = int(0)
-            for g in range(surfaces):
-                s1 = model.surface_edge_end[g]
-                if near_surface(model, g, middle, size) < reach:
-                    for s in range(s0, s1):
-                        start_s = model.static_edge_a[s]
-                        along = model.static_edge_b[s] - start_s
-                        t = zero
-                        if wp.dot(along, along) > zero:
-                            t = wp.clamp(wp.dot(middle - start_s, along)
-                                         / wp.dot(along, along), zero, one)
-                        apart = (wp.length(middle - start_s - t * along) - size
-                                 - model.static_edge_radius[s])
-                        if apart < reach:
-                            at = add_near(model, scratch, env, first + e * statics_e + s,
-                                          reach, at)
-                s0 = s1
+            at = gather_static(model, scratch, env, model.surface_edge_end, 1, middle, size,
+                               model.contact_d_hat + scratch.body_margin[env, b],
+                               first + e * statics_e, at)
         statics_v = model.static_vertex.shape[0]
         for f in range(model.face_body.shape[0]):
             b = model.face_body[f]
-            reach = model.contact_d_hat + scratch.body_margin[env, b]
             centre, size = face_ball(scratch.q_n[env, b], model.face_rest[f])
-            v0 = int(0)
-            for g in range(surfaces):
-                v1 = model.surface_vertex_end[g]
-                if near_surface(model, g, centre, size) < reach:
-                    for v in range(v0, v1):
-                        apart = (wp.length(centre - model.static_vertex[v]) - size
-                                 - model.static_vertex_radius[v])
-                        if apart < reach:
-                            at = add_near(model, scratch, env,
-                                          first + edges * statics_e + f * statics_v + v, reach,
-                                          at)
-                v0 = v1
+            at = gather_static(model, scratch, env, model.surface_vertex_end, 0, centre, size,
+                               model.contact_d_hat + scratch.body_margin[env, b],
+                               first + edges * statics_e + f * statics_v, at)
         if wp.static(bodies):
             at = gather_bodies(model, scratch, env, at)
         return at - start
