@@ -253,3 +253,44 @@ def test_steps_requested_through_the_standard_wait_for_the_controller(
         pd = 20.0 * (0.5 - state.position[0]) - 2.0 * state.velocity[0]
         assert after.effort[0] == pytest.approx(pd, rel=1e-12), k
     assert 'Traceback' not in node.stop()
+
+
+def test_a_waiting_standard_step_ends_on_resume_and_on_cancel(tmp_path, ros_node, wait_for):
+    """Lockstep without a controller: granted steps wait for answers that never come; playing
+    again ends a waiting StepSimulation (it says so), and canceling SimulateSteps ends the
+    step it waits for."""
+    pytest.importorskip('simulation_interfaces', reason='simulation_interfaces not built')
+    from rclpy.action import ActionClient
+    from simulation_interfaces.action import SimulateSteps
+    from simulation_interfaces.msg import Result, SimulationState
+    from simulation_interfaces.srv import SetSimulationState, StepSimulation
+
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep')
+    prefix = '/affine_joint_sim/'
+
+    def set_state(state):
+        return call(ros_node, wait_for, SetSimulationState, prefix + 'set_simulation_state',
+                    SetSimulationState.Request(state=SimulationState(state=state)))
+
+    set_state(SimulationState.STATE_PAUSED)
+    client = ros_node.create_client(StepSimulation, prefix + 'step_simulation')
+    assert client.wait_for_service(timeout_sec=10.0)
+    stepping = client.call_async(StepSimulation.Request(steps=3))
+    assert not wait_for(stepping.done, timeout=1.0)         # waits for lockstep answers
+    set_state(SimulationState.STATE_PLAYING)
+    assert wait_for(stepping.done)
+    ended = stepping.result().result
+    assert ended.result == Result.RESULT_OPERATION_FAILED and 'resumed' in ended.error_message
+
+    set_state(SimulationState.STATE_PAUSED)
+    actions = ActionClient(ros_node, SimulateSteps, prefix + 'simulate_steps')
+    assert actions.wait_for_server(timeout_sec=10.0)
+    sent = actions.send_goal_async(SimulateSteps.Goal(steps=5))
+    assert wait_for(sent.done)
+    goal = sent.result()
+    outcome = goal.get_result_async()
+    assert not wait_for(outcome.done, timeout=1.0)
+    goal.cancel_goal_async()
+    assert wait_for(outcome.done)
+    assert 'canceled after 0 steps' in outcome.result().result.result.error_message
+    assert 'Traceback' not in node.stop()

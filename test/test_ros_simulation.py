@@ -159,8 +159,7 @@ def test_a_placed_body_is_recorded_and_replays_exactly(sim, ros_node, wait_for, 
     assert SimulatorFeatures.ENTITY_STATE_SETTING in \
         _call(ros_node, wait_for, 'get_simulator_features').features.features
     _call(ros_node, wait_for, 'set_simulation_state',
-          state=SimulationState(state=SimulationState.STATE_PAUSED))
-    _call(ros_node, wait_for, 'step_simulation', steps=3)
+          state=SimulationState(state=SimulationState.STATE_STOPPED))
 
     def placed(entity, z=1.0, w=math.cos(0.2), frame_id='world'):
         state = EntityState(pose=Pose())
@@ -170,6 +169,13 @@ def test_a_placed_body_is_recorded_and_replays_exactly(sim, ros_node, wait_for, 
         state.twist.linear.x, state.twist.angular.z = -0.5, 2.0
         return _call(ros_node, wait_for, 'set_entity_state', entity=entity, state=state).result
 
+    # placed at t = 0 and reset before any step: replay must undo it too
+    assert placed('box', z=2.0).result == Result.RESULT_OK
+    assert _call(ros_node, wait_for, 'reset_simulation', scope=255).result.result == \
+        Result.RESULT_OK
+    _call(ros_node, wait_for, 'set_simulation_state',
+          state=SimulationState(state=SimulationState.STATE_PAUSED))
+    _call(ros_node, wait_for, 'step_simulation', steps=3)
     assert placed('box').result == Result.RESULT_OK
     got = _call(ros_node, wait_for, 'get_entity_state', entity='box').state
     assert (got.pose.position.x, got.pose.position.z) == pytest.approx((0.6, 1.0), abs=1e-12)

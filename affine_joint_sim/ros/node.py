@@ -401,6 +401,7 @@ class SimNode(Node):
         with self._wake:
             self.paused = paused
             if not self.paused:
+                self.grant.end('the simulation was resumed before the steps were taken')
                 self.pacer.anchor(self.sim.time)
                 self.pacer.restart_window(self.sim.time)
             self._wake.notify()
@@ -457,6 +458,7 @@ class SimNode(Node):
     def reset(self):
         """Back to the scene's initial state at t = 0; publishes that state."""
         self.recording.record_taken(self.loop.bag_ns)   # taken before the reset: recorded
+        self.grant.end('the simulation was reset before the steps were taken')
         self.loop.reset()
         self._event({'event': 'reset'})
         self.viz.reset(self.loop.bag_ns)
@@ -513,14 +515,19 @@ class SimNode(Node):
 
     def grant_steps(self, count: int):
         """Let the loop take ``count`` steps while paused (``ros.step_grant``): the future
-        of their end (True; False if the node stops first), or None while another grant runs
-        or the node stops."""
+        of their end (None; else why the grant ended first), or None while another grant
+        runs or the node stops."""
         with self._wake:
             if self._stopping:
                 return None
             done = self.grant.open(count, self.executor)
             self._wake.notify()
         return done
+
+    def end_grant(self, future, reason: str) -> None:
+        """End the grant of ``future`` (``grant_steps``) if it still runs."""
+        with self._wake:
+            self.grant.end(reason, future)
 
     def _keep_lockstep_alive(self):
         """While lockstep waits: publish the waiting state again (for controllers that joined
@@ -635,7 +642,8 @@ class SimNode(Node):
                         self._wake.wait(min(wait, 0.1))
                         continue
                     self.step()
-                    self.grant.took_step()
+                    if self.paused:
+                        self.grant.took_step()
                 self._check_rate()
                 now = time.monotonic()
                 if now - yielded > _YIELD_EVERY:
@@ -645,7 +653,7 @@ class SimNode(Node):
         finally:
             with self._wake:
                 self._serve_requests(stopping=True)
-                self.grant.cancel()
+                self.grant.end('node stopping')
             executor.shutdown(timeout_sec=1.0)
             spinner.join(timeout=1.0)
         if failure:

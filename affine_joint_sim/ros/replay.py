@@ -276,6 +276,7 @@ class _Resimulation:
         self.loop.reset()
         self.loop.epoch_ns = epoch_ns
         self.pending: list[_Message] = []
+        self.placed = False     # a placement since: a reset before any step undoes it
         self.previous = self.current = self._sample()
 
     def _sample(self):
@@ -307,6 +308,7 @@ class _Resimulation:
         self._reach(bag_ns - self.epoch_ns)
         try:
             place(self.sim, event)
+            self.placed = True
         except (KeyError, ValueError) as exc:
             self.dropped.append(f'placement of {event["entity"]!r} at '
                                 f'{(bag_ns - self.epoch_ns) * 1e-9:.6f} s: {exc}')
@@ -385,7 +387,8 @@ def _replay_messages(bag, run, writer, divergence, scene):
                 writer.recorder.write(m.topic, m.t_ns, m.raw)
             event = yaml.safe_load(m.decode().data)
             started = started or event.get('event') == 'start'
-            if event.get('event') == 'reset' and (run.sim.step_count or m.t_ns != run.epoch_ns):
+            if event.get('event') == 'reset' and (run.sim.step_count or run.placed
+                                                  or m.t_ns != run.epoch_ns):
                 run.reset(m.t_ns)
             if event.get('event') == PLACEMENT_EVENT:
                 run.place(m.t_ns, event)
@@ -492,8 +495,12 @@ class _OutBag:
         if self.tree is None:
             self.tree = TransformTree(sim, self.tf_frame)
             self.recorder.write(self.tf_topics['tf_static'], bag_ns, self.tree.static_message(0))
-        due = self.tf_due
-        while self.tf_due < len(self.tf_times) and self.tf_times[self.tf_due] <= bag_ns + _EPS_NS:
+        # every recorded one before this state, and one at its time: after a reset before
+        # any step two states share a bag time, and so do their /tf
+        times, due = self.tf_times, self.tf_due
+        while self.tf_due < len(times) and times[self.tf_due] < bag_ns - _EPS_NS:
+            self.tf_due += 1
+        if self.tf_due < len(times) and times[self.tf_due] <= bag_ns + _EPS_NS:
             self.tf_due += 1
         if self.tf_due > due:
             self.recorder.write(self.tf_topics['tf'], bag_ns,

@@ -39,6 +39,7 @@ class SimulationServices:
         self.node = node
         self.states = SimulationState
         self.stopped = False        # STATE_STOPPED: paused at the initial state
+        self._granted = None        # the step the SimulateSteps action awaits
         f = SimulatorFeatures
         self.features = [f.SIMULATION_RESET, f.SIMULATION_RESET_TIME, f.SIMULATION_RESET_STATE,
                          f.SIMULATION_STATE_GETTING, f.SIMULATION_STATE_SETTING,
@@ -58,11 +59,10 @@ class SimulationServices:
                 ('get_entity_state', srv.GetEntityState, self._entity_state),
                 ('set_entity_state', srv.SetEntityState, self._set_entity_state)):
             node.create_service(kind, f'~/{name}', handler, callback_group=group)
-        from rclpy.action import ActionServer, CancelResponse
+        from rclpy.action import ActionServer
         from simulation_interfaces.action import SimulateSteps
         self._action = ActionServer(node, SimulateSteps, '~/simulate_steps', self._simulate,
-                                    cancel_callback=lambda goal: CancelResponse.ACCEPT,
-                                    callback_group=group)
+                                    cancel_callback=self._cancel, callback_group=group)
 
     @staticmethod
     def _result(response, code: int, message: str = ''):
@@ -130,9 +130,19 @@ class SimulationServices:
         if done is None:
             return self._result(response, results.RESULT_OPERATION_FAILED, _BUSY)
         self.stopped = False
-        if not await done:
-            return self._result(response, results.RESULT_OPERATION_FAILED, 'node stopping')
+        ended = await done
+        if ended is not None:
+            return self._result(response, results.RESULT_OPERATION_FAILED, ended)
         return self._result(response, results.RESULT_OK)
+
+    def _cancel(self, goal):
+        """Accept a cancel request; a step the action waits for (lockstep awaiting answers)
+        is not waited for any longer."""
+        from rclpy.action import CancelResponse
+
+        if self._granted is not None:
+            self.node.end_grant(self._granted, 'canceled')
+        return CancelResponse.ACCEPT
 
     async def _simulate(self, goal):
         """The SimulateSteps action: ``steps`` steps while paused, granted one at a time
@@ -151,11 +161,16 @@ class SimulationServices:
                 goal.canceled()
                 return self._result(result, result.result.RESULT_OK,
                                     f'canceled after {done - 1} steps')
-            granted = self.node.grant_steps(1)
-            if granted is None or not await granted:
+            self._granted = granted = self.node.grant_steps(1)
+            ended = _BUSY if granted is None else await granted
+            self._granted = None
+            if ended is not None and goal.is_cancel_requested:
+                goal.canceled()
+                return self._result(result, result.result.RESULT_OK,
+                                    f'canceled after {done - 1} steps')
+            if ended is not None:
                 goal.abort()
-                return self._result(result, result.result.RESULT_OPERATION_FAILED,
-                                    _BUSY if granted is None else 'node stopping')
+                return self._result(result, result.result.RESULT_OPERATION_FAILED, ended)
             feedback.completed_steps, feedback.remaining_steps = done, total - done
             goal.publish_feedback(feedback)
         goal.succeed()

@@ -3,9 +3,11 @@
 
 The node's loop takes granted steps as it takes steps in play, lockstep included (each waits
 for the controllers' answers to the state before it, so a controller stays in the loop), but
-unpaced (a realtime node steps them flat out, as Gazebo does). A future is done when the last
-one is, True, or False if the node stops first; the service that asked awaits it in the ROS
-executor, which goes on taking commands meanwhile. One grant at a time.
+unpaced (a realtime node steps them flat out, as Gazebo does); only steps taken while paused
+count. A future is done when the last one is (result None), or with the reason the grant
+ended first (the simulation resumed or reset, the request canceled, the node stopping); the
+service that asked awaits it in the ROS executor, which goes on taking commands meanwhile.
+One grant at a time.
 """
 
 from rclpy.task import Future
@@ -28,7 +30,7 @@ class StepGrant:
             return None
         future = Future()
         if count <= 0:
-            future.set_result(True)
+            future.set_result(None)
             return future
         self.remaining, self._done, self._executor = count, future, executor
         return future
@@ -38,18 +40,19 @@ class StepGrant:
         return self.remaining > 0
 
     def took_step(self) -> None:
-        """The loop took a step (while a grant runs: one of the granted)."""
+        """The loop took a step while paused (while a grant runs: one of the granted)."""
         if self.remaining:
             self.remaining -= 1
             if not self.remaining:
-                self._end(True)
+                self._end(None)
 
-    def cancel(self) -> None:
-        """The node stops: a running grant ends False."""
-        if self._done is not None:
-            self._end(False)
+    def end(self, reason: str, future: Future | None = None) -> None:
+        """End the running grant (only if it is ``future``, when given) before its steps are
+        taken: its future's result is ``reason``."""
+        if self._done is not None and future in (None, self._done):
+            self._end(reason)
 
-    def _end(self, result: bool) -> None:
+    def _end(self, result: str | None) -> None:
         done, self._done, self.remaining = self._done, None, 0
         done.set_result(result)
         if self._executor is not None:
