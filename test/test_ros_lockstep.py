@@ -294,3 +294,25 @@ def test_a_waiting_standard_step_ends_on_resume_and_on_cancel(tmp_path, ros_node
     assert wait_for(outcome.done)
     assert 'canceled after 0 steps' in outcome.result().result.result.error_message
     assert 'Traceback' not in node.stop()
+
+
+def test_a_node_stopping_answers_a_waiting_standard_step(tmp_path, ros_node, wait_for):
+    """Stopped (SIGINT) while a StepSimulation waits for lockstep answers, the node answers
+    it (the node stopping) before it goes."""
+    pytest.importorskip('simulation_interfaces', reason='simulation_interfaces not built')
+    from simulation_interfaces.msg import Result, SimulationState
+    from simulation_interfaces.srv import SetSimulationState, StepSimulation
+
+    node = LoggedNode(tmp_path, ros_node, wait_for, '--mode', 'lockstep')
+    prefix = '/affine_joint_sim/'
+    call(ros_node, wait_for, SetSimulationState, prefix + 'set_simulation_state',
+         SetSimulationState.Request(state=SimulationState(state=SimulationState.STATE_PAUSED)))
+    client = ros_node.create_client(StepSimulation, prefix + 'step_simulation')
+    assert client.wait_for_service(timeout_sec=10.0)
+    stepping = client.call_async(StepSimulation.Request(steps=2))
+    assert not wait_for(stepping.done, timeout=1.0)         # waits for lockstep answers
+    assert 'Traceback' not in node.stop()
+    assert wait_for(stepping.done)
+    ended = stepping.result().result
+    assert ended.result == Result.RESULT_OPERATION_FAILED
+    assert ended.error_message == 'node stopping'

@@ -653,7 +653,10 @@ class SimNode(Node):
         finally:
             with self._wake:
                 self._serve_requests(stopping=True)
+                waiting = self.grant.active
                 self.grant.end('node stopping')
+            if waiting:     # the service awaiting it answers before the executor goes
+                self.grant.answered.wait(timeout=1.0)
             executor.shutdown(timeout_sec=1.0)
             spinner.join(timeout=1.0)
         if failure:

@@ -131,6 +131,7 @@ class SimulationServices:
             return self._result(response, results.RESULT_OPERATION_FAILED, _BUSY)
         self.stopped = False
         ended = await done
+        self.node.grant.answered.set()
         if ended is not None:
             return self._result(response, results.RESULT_OPERATION_FAILED, ended)
         return self._result(response, results.RESULT_OK)
@@ -163,6 +164,7 @@ class SimulationServices:
                                     f'canceled after {done - 1} steps')
             self._granted = granted = self.node.grant_steps(1)
             ended = _BUSY if granted is None else await granted
+            self.node.grant.answered.set()
             self._granted = None
             if ended is not None and goal.is_cancel_requested:
                 goal.canceled()

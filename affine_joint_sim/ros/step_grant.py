@@ -10,6 +10,8 @@ service that asked awaits it in the ROS executor, which goes on taking commands 
 One grant at a time.
 """
 
+import threading
+
 from rclpy.task import Future
 
 __all__ = ['StepGrant']
@@ -22,6 +24,8 @@ class StepGrant:
         self.remaining = 0
         self._done = None
         self._executor = None
+        self.answered = threading.Event()   # set by the service once it has its end
+        self.answered.set()
 
     def open(self, count: int, executor) -> Future | None:
         """Grant ``count`` steps; the future of their end, or None while a grant runs.
@@ -33,6 +37,7 @@ class StepGrant:
             future.set_result(None)
             return future
         self.remaining, self._done, self._executor = count, future, executor
+        self.answered.clear()
         return future
 
     @property
