@@ -130,11 +130,17 @@ class SimulationServices:
         if done is None:
             return self._result(response, results.RESULT_OPERATION_FAILED, _BUSY)
         self.stopped = False
-        ended = await done
-        self.node.grant.answered.set()
+        ended = await self._taken(done)
         if ended is not None:
             return self._result(response, results.RESULT_OPERATION_FAILED, ended)
         return self._result(response, results.RESULT_OK)
+
+    async def _taken(self, granted):
+        """Await granted steps: None once taken, else why the grant ended first; says so to
+        the node, which waits for this answer before it stops."""
+        ended = await granted
+        self.node.grant.answered.set()
+        return ended
 
     def _cancel(self, goal):
         """Accept a cancel request; a step the action waits for (lockstep awaiting answers)
@@ -156,27 +162,25 @@ class SimulationServices:
             return self._result(result, result.result.RESULT_OPERATION_FAILED,
                                 'not paused: set STATE_PAUSED first')
         self.stopped = False
-        feedback = SimulateSteps.Feedback()
-        for done in range(1, total + 1):
+        feedback, completed = SimulateSteps.Feedback(), 0
+        while True:
             if goal.is_cancel_requested:
                 goal.canceled()
                 return self._result(result, result.result.RESULT_OK,
-                                    f'canceled after {done - 1} steps')
+                                    f'canceled after {completed} steps')
+            if completed == total:
+                goal.succeed()
+                return self._result(result, result.result.RESULT_OK)
             self._granted = granted = self.node.grant_steps(1)
-            ended = _BUSY if granted is None else await granted
-            self.node.grant.answered.set()
+            ended = _BUSY if granted is None else await self._taken(granted)
             self._granted = None
-            if ended is not None and goal.is_cancel_requested:
-                goal.canceled()
-                return self._result(result, result.result.RESULT_OK,
-                                    f'canceled after {done - 1} steps')
-            if ended is not None:
+            if ended is None:
+                completed += 1
+                feedback.completed_steps, feedback.remaining_steps = completed, total - completed
+                goal.publish_feedback(feedback)
+            elif not goal.is_cancel_requested:
                 goal.abort()
                 return self._result(result, result.result.RESULT_OPERATION_FAILED, ended)
-            feedback.completed_steps, feedback.remaining_steps = done, total - done
-            goal.publish_feedback(feedback)
-        goal.succeed()
-        return self._result(result, result.result.RESULT_OK)
 
     def _entities(self, request, response):
         filters = request.filters
