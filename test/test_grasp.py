@@ -60,13 +60,13 @@ def test_the_gripper_arm_lifts_the_cube_only_when_friction_can_carry_it(finger_k
 
 def test_the_arm_collapsing_onto_the_cube_converges_every_step():
     """Without its controller the arm falls onto the cube and wedges it against the table:
-    the impact's steps take up to ~80 Newton iterations (the step bound of the wedged pairs
-    is conservative while they slide), within the default cap of a scene with contact (one
-    step did not converge at 32); nothing penetrates."""
+    every step converges within the default cap of a scene with contact and nothing
+    penetrates. Its impact's steps took up to ~80 Newton iterations under BDF2 (one did not
+    converge at 32); taken by BDF1 (docs/physics.md#impacts) they take 15."""
     sim = Stepper(Scene.load(scene_path('grasp')))
     iterations = []
     for _ in range(500):
         sim.step()
         assert sim.stats['converged'] and sim.stats['min_distance'] > 0.0, sim.step_count
         iterations.append(sim.stats['newton_iterations'])
-    assert sim.stats['contacts'] > 0 and max(iterations) > 32      # it did hit the cube
+    assert sim.stats['contacts'] > 0 and max(iterations) > 10      # it did hit the cube

@@ -18,10 +18,14 @@ from types import SimpleNamespace
 
 import warp as wp
 
-__all__ = ['ADVANCE_STEPS', 'STEP_SLACK', 'build']
+__all__ = ['ADVANCE_STEPS', 'ARRIVING', 'STEP_SLACK', 'STIFF', 'UNRESOLVED', 'build']
 
 STEP_SLACK = 0.1     # η: a step along dq keeps this fraction of every shrinking gap
 ADVANCE_STEPS = 64  # conservative advancement steps of an edge or face pair at most
+ARRIVING = 0.1      # a pair beyond d̂ that the prediction takes this share of d̂ inside arrives
+UNRESOLVED = 0.5    # a pair moving this share of d̂ along its normal in a step, or stiffer than
+STIFF = 1000.0      # this many m_eff/dt²: an impact or a push-out that the step does not
+                    # resolve (docs/physics.md#impacts)
 # Warp passes a struct argument by value: a call the C++ compiler keeps out of line copies the
 # whole Model (and Scratch) each time. The contact stages a step calls whatever is near are
 # inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact)
@@ -40,6 +44,7 @@ def build(t) -> SimpleNamespace:
     pair_gap, gap_at, other_state = t.pair_gap, t.gap_at, t.other_state
     pair_weight, motion, reach = t.pair_weight, t.motion, t.reach
     keep = scalar(1.0 - STEP_SLACK)
+    arrival, unresolved, stiff = scalar(1.0 - ARRIVING), scalar(UNRESOLVED), scalar(STIFF)
     bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
     infinity = scalar(float('inf'))
 
@@ -366,44 +371,57 @@ def build(t) -> SimpleNamespace:
     @wp.func(inline=INLINE)
     def lag_friction(model: Model, state: State, scratch: Scratch, env: int):
         """Gathers this step's near pairs (margins of twice each body's predicted ``motion``,
-        at least d̂), then per pair closer than d̂ at q_n, frozen for the step: the normal
+        at least d̂), then freezes for the step, per pair closer than d̂ at q_n, the normal
         force dt² λ into scratch.friction_normal (friction's weight: the barrier's
-        −dt² db/dd plus the last step's damping force c (d_{n−1} − d_n)/dt while the pair
-        was approaching, at most as much again as the barrier's: friction sees the load the
-        damper carries while it settles, not an impact's spike) and the contact damping
-        c·dt = 2ζ √(b''(d) m_eff) dt into scratch.normal_damping (0 for the others); an edge
-        pair's mollifier weighs both."""
+        −dt² db/dd plus the last step's damping force c (min(d_{n−1}, d̂) − d_n)/dt while
+        the pair was approaching, at most as much again as the barrier's: friction sees the
+        load the damper carries while it settles, not an impact's spike) and the contact
+        damping c·dt = 2ζ √(b''(d_n) m_eff) dt into scratch.normal_damping (0 for the
+        others); an edge pair's mollifier weighs both. Returns how many pairs the step
+        cannot resolve: beyond d̂ at q_n and closer than (1 − ARRIVING) d̂ at the prediction
+        q̃ (an impact arrives), or stiffer than STIFF m_eff/dt² (deep in the barrier)."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * motion(
                 model, b, scratch.q_tilde[env, b] - scratch.q_n[env, b]))
         old = scratch.near_count[env]
         fresh = gather_near(model, scratch, env, old)
+        arriving = int(0)
         for k in range(old, old + fresh):
             p = scratch.near_pairs[env, k]
             body, other = pair_bodies(model, p)
             qb = scratch.q_n[env, body]
             qo = other_state(scratch.q_n, env, body, other)
             force = zero
-            damping = zero
+            stiffness = zero
             last_damping = scratch.normal_damping[env, p]
             d, n, rest, radius, rest_o, radius_o = pair_gap(model, qb, qo, p)
-            if d > zero and d < model.contact_d_hat:
+            damping = zero
+            if d >= model.contact_d_hat:
+                d_tilde, n_t, rest_t, rest_ot = clamped_gap(model, scratch.q_tilde, env, p)
+                if d_tilde < arrival * model.contact_d_hat:
+                    arriving += 1
+            elif d > zero:
                 e, b1, b2 = barrier(model, d)
                 weight = pair_weight(model, qb, qo, p)
+                stiffness = wp.max(weight * b2, zero)
                 force = -model.dt * model.dt * weight * b1
+                mass = pair_mass(model, scratch, env, body, other, rest, radius, rest_o,
+                                 radius_o, n)
+                if stiffness * model.dt * model.dt > stiff * mass:
+                    arriving += 1
+                if model.contact_damping > zero:
+                    damping = (two * model.contact_damping * wp.sqrt(stiffness * mass)
+                               * model.dt)
                 if last_damping > zero:
                     d_prev, n_prev, r_prev, rr_prev, ro_prev, rro_prev = gap_at(
                         model, state.q_prev, env, p)
-                    force += wp.min(last_damping * wp.max(d_prev - d, zero), force)
-                if model.contact_damping > zero:
-                    mass = pair_mass(model, scratch, env, body, other, rest, radius, rest_o,
-                                     radius_o, n)
-                    damping = (two * model.contact_damping
-                               * wp.sqrt(wp.max(weight * b2, zero) * mass) * model.dt)
+                    force += wp.min(last_damping * wp.max(
+                        wp.min(d_prev, model.contact_d_hat) - d, zero), force)
             scratch.friction_normal[env, p] = force
             scratch.normal_damping[env, p] = damping
         retire(model, scratch, env, old, fresh)
+        return arriving
 
     @wp.func
     def push(scratch: Scratch, env: int, body: int, other: int, coefficient: scalar,
@@ -440,39 +458,61 @@ def build(t) -> SimpleNamespace:
                 couple(model, scratch, env, body, other, wp.outer(c * w, w_other))
 
     @wp.func
-    def approach(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-                 p: int):
-        """(min(d(q) − d(q_n), 0) [m]: how far pair p closed since the step's start, 0 while
-        it separates; its normal n and rest points x̄, ȳ at q)."""
+    def clamped_gap(model: Model, q: wp.array2d(dtype=vec12), env: int, p: int):
+        """(min(d(q), d̂) [m] of pair p: its distance within the barrier's reach; its normal n
+        and rest points x̄, ȳ at q)."""
         d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
-        d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(model, scratch.q_n, env, p)
-        return wp.min(d - d_n, zero), n, rest, rest_o
+        return wp.min(d, model.contact_d_hat), n, rest, rest_o
+
+    @wp.func
+    def normal_motion(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                      p: int):
+        """(min(d(q), d̂) − min(d(q_n), d̂) [m]: how far pair p moved along its normal within
+        d̂ since the step's start (< 0 closing; its flight towards d̂ does not count); its
+        normal n and rest points x̄, ȳ at q)."""
+        d, n, rest, rest_o = clamped_gap(model, q, env, p)
+        d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
+        return d - d_n, n, rest, rest_o
+
+    @wp.func
+    def impact(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
+        """1 if a listed pair's ``normal_motion`` to q is more than UNRESOLVED d̂ either way:
+        an impact, a stop or a push-out faster than the step resolves (not a contact resting,
+        rolling or sliding), else 0."""
+        found = int(0)
+        for k in range(listed(model, scratch, env)):
+            motion, n, rest, rest_o = normal_motion(model, q, scratch, env,
+                                                    listed_pair(model, scratch, env, k))
+            if wp.abs(motion) > unresolved * model.contact_d_hat:
+                found = 1
+        return found
 
     @wp.func
     def damping_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
                        env: int):
-        """Σ ½ c dt min(d(q) − d(q_n), 0)² over the pairs with lagged damping [J·s²]: a
-        viscous force −c ḋ against each contact's approach (ḋ ≈ (d − d_n)/dt < 0), none
-        while it separates (a damper that pulled would hold a lifting foot down)."""
+        """Σ ½ c dt a² over the pairs with lagged damping [J·s²], a = min(``normal_motion``,
+        0): a viscous force −c ḋ against each contact's approach within d̂ (ḋ ≈ a/dt < 0),
+        none while it separates (a damper that pulled would hold a lifting foot down)."""
         energy = zero
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             weight = scratch.normal_damping[env, p]
             if weight > zero:
-                closed, n, rest, rest_o = approach(model, q, scratch, env, p)
+                motion, n, rest, rest_o = normal_motion(model, q, scratch, env, p)
+                closed = wp.min(motion, zero)
                 energy += half * weight * closed * closed
         return energy
 
     @wp.func
     def add_damping(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                     hessian: int):
-        """Contact damping's gradient c dt min(d − d_n, 0) w into scratch.rhs and, while the
-        pair approaches, c dt w wᵀ (curvature left out, as for the barrier)."""
+        """Contact damping's gradient c dt a w into scratch.rhs (a = ``normal_motion`` < 0:
+        while the pair approaches) and c dt w wᵀ (curvature left out, as for the barrier)."""
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             weight = scratch.normal_damping[env, p]
             if weight > zero:
-                closed, n, rest, rest_o = approach(model, q, scratch, env, p)
+                closed, n, rest, rest_o = normal_motion(model, q, scratch, env, p)
                 if closed < zero:
                     body, other = pair_bodies(model, p)
                     w = jacobian_transpose(rest, n)
@@ -724,4 +764,4 @@ def build(t) -> SimpleNamespace:
                            add_friction=add_friction, damping_energy=damping_energy,
                            add_damping=add_damping,
                            contact_energy=contact_energy, add_contact=add_contact,
-                           step_bound=step_bound, touching=touching)
+                           step_bound=step_bound, touching=touching, impact=impact)

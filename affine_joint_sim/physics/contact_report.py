@@ -1,10 +1,11 @@
 """The active contacts of a state, host side (``Stepper.contacts``, sensors, markers;
 README.md#contact).
 
-A pair is active when its distance is below d̂, or when forces were lagged for it at the
-step's start (they act until the step ends). Its normal force is the barrier's push −db/dd
-[N] at the state's distance, plus the contact damping's c max(d_n − d, 0)/dt against its
-approach, c frozen at the step's start (``scratch.normal_damping`` / dt); its friction force
+A pair is active when its distance is below d̂, or when friction was lagged for it at the
+step's start (it acts until the step ends). Its normal force is the barrier's push −db/dd
+[N] at the state's distance, plus the contact damping's c max(min(d_n, d̂) − d, 0)/dt against
+its approach within d̂, c frozen at the step's start (``scratch.normal_damping`` / dt); its
+friction force
 the lagged smoothed Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against the slip u
 since the step's start, λ the normal force frozen at that start (``scratch.friction_normal``
 / dt²). These are the forces the step balanced, as ``physics.contact`` computes them,
@@ -53,19 +54,18 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
     model = vars(host)
     dt2 = float(host.dt) ** 2
     out = []
-    for pair in _candidates(host, q, friction_normal, normal_damping):
+    for pair in _candidates(host, q, friction_normal):
         gap = pair_gap(model, q, pair)
         d = gap.distance
-        lagged = friction_normal[pair] > 0.0 or normal_damping[pair] > 0.0
-        if not (0.0 < d < host.contact_d_hat or (lagged and d > 0.0)):
+        if not (0.0 < d < host.contact_d_hat or (friction_normal[pair] > 0.0 and d > 0.0)):
             continue
         force = np.zeros(3)
         if friction_normal[pair] > 0.0:
             force = _friction(host, q, q_n, pair, friction_normal[pair] / dt2)
         push = pair_weight(model, q_n, pair) * barrier_force(
             d, host.contact_d_hat, host.contact_kappa) if d < host.contact_d_hat else 0.0
-        if normal_damping[pair] > 0.0:
-            d_n = pair_gap(model, q_n, pair).distance
+        if normal_damping[pair] > 0.0 and d < host.contact_d_hat:
+            d_n = min(pair_gap(model, q_n, pair).distance, host.contact_d_hat)
             push += normal_damping[pair] * max(d_n - d, 0.0) / dt2
         other = static_names[gap.static] if gap.other is None else body_names[gap.other]
         out.append({'body': body_names[gap.body], 'other': other,
@@ -74,11 +74,11 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
     return out
 
 
-def _candidates(host, q, friction_normal, normal_damping) -> list[int]:
+def _candidates(host, q, friction_normal) -> list[int]:
     """Pairs that may touch and may be closer than d̂ (``pair_geometry.near_pairs``), and
-    those with forces lagged at the step's start (friction and damping act on them even once
-    they are beyond d̂). The pairs are then evaluated one by one."""
-    lagged = np.flatnonzero((friction_normal > 0.0) | (normal_damping > 0.0))
+    those with friction lagged at the step's start (it acts on them even once they are beyond
+    d̂; damping acts only within d̂). The pairs are then evaluated one by one."""
+    lagged = np.flatnonzero(friction_normal > 0.0)
     return [int(p) for p in np.union1d(near_pairs(vars(host), q, host.contact_d_hat), lagged)]
 
 

@@ -3,10 +3,11 @@
 One thread per environment (environments first_env, first_env + 1, ...: the CPU steps a batch
 in several launches at once, each counting its problems in its own row ``chunk``): prediction,
 friction's lagged normal forces (with contact), explicit commands, Newton with line search,
-then commit or reject and the statistics. No host sync inside a step. The kernel gets a Warp
-module of its own per precision (``module="unique"``) and no adjoint: nothing differentiates
-the step, and Warp's generated backward pass made it compile several times slower
-(docs/architecture.md#measured-figures).
+then commit or reject and the statistics. Under BDF2 a step where a contact may begin is BDF1,
+and so is the step after an impact that the step did not resolve (docs/physics.md#impacts).
+No host sync inside a step. The kernel gets a Warp module of its own per precision
+(``module="unique"``) and no adjoint: nothing differentiates the step, and Warp's generated
+backward pass made it compile several times slower (docs/architecture.md#measured-figures).
 """
 
 from types import SimpleNamespace
@@ -22,7 +23,8 @@ def build(t) -> SimpleNamespace:
                                       t.structs.Scratch)
     integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
     newton, finish, write_stats = t.newton, t.finish, t.write_stats
-    lag_friction = t.lag_friction
+    lag_friction, touching, impact = t.lag_friction, t.touching, t.impact
+    scalar = t.scalar
     largest_gap, largest_strain = t.largest_gap, t.largest_strain
     salt = t.source_salt
 
@@ -31,18 +33,32 @@ def build(t) -> SimpleNamespace:
              chunk: int):
         wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
         env = first_env + wp.tid()
-        bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env)
+        bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 0)
         predict(model, state, scratch, env, bdf2, force_scale)
-        if model.has_contact != 0:
-            lag_friction(model, state, scratch, env)
+        opening = int(0)
+        if model.has_contact != 0:     # pairs arriving deep within d̂: an impact
+            opening = lag_friction(model, state, scratch, env)
+            if bdf2 != 0 and opening != 0:
+                bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 1)
+                predict(model, state, scratch, env, bdf2, force_scale)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
         iterations, halvings, failures, converged, residual, inner, stalls = newton(
             model, state, control, scratch, env, kinetic_scale, bdf2)
+        restart = int(0)
+        if model.has_contact != 0:
+            restart = opening + impact(model, state.q, scratch, env)
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
+        if restart != 0:     # the next step is BDF1: BDF2 would carry an impact's turn on
+            state.history_ready[env] = 0
         if finite == 0:
             converged = 0
+        nearest = scalar(0.0)
+        contacts = int(0)
+        if model.has_contact != 0:
+            nearest, contacts = touching(model, state.q, scratch, env, 1)
         write_stats(model, state, scratch, env, chunk, iterations, halvings, converged,
                     failures, aliased, dropped, finite, rejected, residual, inner, stalls,
-                    largest_gap(model, state, env), largest_strain(model, state, env))
+                    largest_gap(model, state, env), largest_strain(model, state, env),
+                    nearest, contacts)
 
     return SimpleNamespace(step=step)
