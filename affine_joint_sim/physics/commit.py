@@ -37,6 +37,7 @@ def build(t) -> SimpleNamespace:
     s_residual, s_gap, s_strain = _F['residual'], _F['joint_gap'], _F['rotation_strain']
     s_distance, s_contacts = _F['min_distance'], _I['contacts']
     s_inner, s_stalls = _I['inner_iterations'], _I['inner_stalls']
+    touching = t.touching
     p_any, p_not_converged, p_non_finite = _P['any'], _P['not_converged'], _P['non_finite']
     p_aliased, p_dropped, p_failures = (_P['angle_aliased'], _P['torque_dropped'],
                                         _P['line_search_failures'])
@@ -147,7 +148,7 @@ def build(t) -> SimpleNamespace:
     def write_stats(model: Model, state: State, scratch: Scratch, env: int, chunk: int,
                     iterations: int, halvings: int, converged: int, failures: int, aliased: int,
                     dropped: int, finite: int, rejected: int, residual: scalar, inner: int,
-                    stalls: int, gap: scalar, strain: scalar, nearest: scalar, contacts: int):
+                    stalls: int, gap: scalar, strain: scalar):
         """The step's statistics, addressed by the names of physics.fields (with contact: the
         smallest distance to a static thing and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
@@ -166,6 +167,7 @@ def build(t) -> SimpleNamespace:
         state.stats_float[env, s_gap] = gap
         state.stats_float[env, s_strain] = strain
         if model.has_contact != 0:
+            nearest, contacts = touching(model, state.q, scratch, env, 1)
             state.stats_float[env, s_distance] = nearest
             state.stats_int[env, s_contacts] = contacts
             state.nearest_seen[env] = wp.min(state.nearest_seen[env], nearest)

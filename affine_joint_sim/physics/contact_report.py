@@ -5,12 +5,11 @@ A pair is active when its distance is below d̂, or when friction was lagged for
 step's start (it acts until the step ends). Its normal force is the barrier's push −db/dd
 [N] at the state's distance, plus the contact damping's c max(min(d_n, d̂) − d, 0)/dt against
 its approach within d̂, c frozen at the step's start (``scratch.normal_damping`` / dt); its
-friction force
-the lagged smoothed Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against the slip u
-since the step's start, λ the normal force frozen at that start (``scratch.friction_normal``
-/ dt²). These are the forces the step balanced, as ``physics.contact`` computes them,
-evaluated once more in plain NumPy (the last bits may differ from the kernel's, and between
-machines).
+friction force the lagged smoothed Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against
+the slip u since the step's start, λ the normal force frozen at that start
+(``scratch.friction_normal`` / dt²). These are the forces the step balanced, as
+``physics.contact`` computes them, evaluated once more in plain NumPy (the last bits may differ
+from the kernel's, and between machines).
 """
 
 import math

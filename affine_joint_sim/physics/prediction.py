@@ -2,7 +2,7 @@
 
 BDF1: q̃ = q_n + dt v_n + dt² a_g. BDF2: q̃ = 4/3 q_n − 1/3 q_{n−1} + 2dt/9 (4 v_n − v_{n−1})
 + 4/9 dt² a_g; it starts with one BDF1 step (the first, and the first after a reset), and steps
-where a contact may begin are BDF1 (docs/physics.md#impacts). The joint commands are
+with a contact they cannot resolve are BDF1 (docs/physics.md#impacts). The joint commands are
 added afterwards by the command stage with the same force scale; the prediction without them
 is Newton's start (docs/physics.md#newton-start).
 """
@@ -28,12 +28,12 @@ def build(t) -> SimpleNamespace:
     assert math.isclose(float(bdf2_q_n) - float(bdf2_q_prev), 1.0, rel_tol=1e-6)
 
     @wp.func
-    def integrator_scales(model: Model, state: State, env: int, opening: int):
+    def integrator_scales(model: Model, state: State, env: int, unresolved: int):
         """(bdf2 on this step, kinetic scale, force scale [s²]) of environment ``env``: BDF1
-        where ``opening`` (a contact may begin within the step: docs/physics.md#impacts)."""
+        where ``unresolved`` (a contact the step cannot resolve: docs/physics.md#impacts)."""
         dt2 = model.dt * model.dt
         bdf2 = int(0)
-        if model.integrator == BDF2 and state.history_ready[env] != 0 and opening == 0:
+        if model.integrator == BDF2 and state.history_ready[env] != 0 and unresolved == 0:
             bdf2 = 1
         kinetic_scale = one
         force_scale = dt2

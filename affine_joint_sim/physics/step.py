@@ -3,8 +3,8 @@
 One thread per environment (environments first_env, first_env + 1, ...: the CPU steps a batch
 in several launches at once, each counting its problems in its own row ``chunk``): prediction,
 friction's lagged normal forces (with contact), explicit commands, Newton with line search,
-then commit or reject and the statistics. Under BDF2 a step where a contact may begin is BDF1,
-and so is the step after an impact that the step did not resolve (docs/physics.md#impacts).
+then commit or reject and the statistics. Under BDF2 a step with a contact that it cannot resolve
+is BDF1, and so is the step after it or after an impact (docs/physics.md#impacts).
 No host sync inside a step. The kernel gets a Warp module of its own per precision
 (``module="unique"``) and no adjoint: nothing differentiates the step, and Warp's generated
 backward pass made it compile several times slower (docs/architecture.md#measured-figures).
@@ -13,6 +13,8 @@ backward pass made it compile several times slower (docs/architecture.md#measure
 from types import SimpleNamespace
 
 import warp as wp
+
+from affine_joint_sim.physics.codes import BDF2
 
 __all__ = ['build']
 
@@ -23,8 +25,7 @@ def build(t) -> SimpleNamespace:
                                       t.structs.Scratch)
     integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
     newton, finish, write_stats = t.newton, t.finish, t.write_stats
-    lag_friction, touching, impact = t.lag_friction, t.touching, t.impact
-    scalar = t.scalar
+    lag_friction, impact = t.lag_friction, t.impact
     largest_gap, largest_strain = t.largest_gap, t.largest_strain
     salt = t.source_salt
 
@@ -35,30 +36,25 @@ def build(t) -> SimpleNamespace:
         env = first_env + wp.tid()
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 0)
         predict(model, state, scratch, env, bdf2, force_scale)
-        opening = int(0)
-        if model.has_contact != 0:     # pairs arriving deep within d̂: an impact
-            opening = lag_friction(model, state, scratch, env)
-            if bdf2 != 0 and opening != 0:
+        unresolved = int(0)
+        if model.has_contact != 0:     # pairs arriving within d̂, or deep in the barrier
+            unresolved = lag_friction(model, state, scratch, env)
+            if bdf2 != 0 and unresolved != 0:
                 bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 1)
                 predict(model, state, scratch, env, bdf2, force_scale)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
         iterations, halvings, failures, converged, residual, inner, stalls = newton(
             model, state, control, scratch, env, kinetic_scale, bdf2)
-        restart = int(0)
-        if model.has_contact != 0:
-            restart = opening + impact(model, state.q, scratch, env)
+        restart = unresolved
+        if restart == 0 and model.has_contact != 0 and model.integrator == BDF2:
+            restart = impact(model, state.q, scratch, env)
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if restart != 0:     # the next step is BDF1: BDF2 would carry an impact's turn on
             state.history_ready[env] = 0
         if finite == 0:
             converged = 0
-        nearest = scalar(0.0)
-        contacts = int(0)
-        if model.has_contact != 0:
-            nearest, contacts = touching(model, state.q, scratch, env, 1)
         write_stats(model, state, scratch, env, chunk, iterations, halvings, converged,
                     failures, aliased, dropped, finite, rejected, residual, inner, stalls,
-                    largest_gap(model, state, env), largest_strain(model, state, env),
-                    nearest, contacts)
+                    largest_gap(model, state, env), largest_strain(model, state, env))
 
     return SimpleNamespace(step=step)
