@@ -8,13 +8,16 @@ Modules behind a subcommand are imported only when it runs, so ``--help`` is qui
 """
 
 import argparse
+import math
 import sys
+import tempfile
 import warnings
 from pathlib import Path
 
-from affine_joint_sim.resources import packaged_scenes
+from affine_joint_sim.resources import packaged_scenes, scene_path
 from affine_joint_sim.ros.parameters import MODES, STORAGES
-from affine_joint_sim.scene import SceneError
+from affine_joint_sim.scene import SceneError, looks_like_urdf
+from affine_joint_sim.sim_warnings import SimulationDetail
 
 __all__ = ['main']
 
@@ -62,6 +65,29 @@ def _pixels(text: str) -> int:
                                          f'{text!r}') from None
 
 
+_POSE = '3 or 6 finite numbers: X Y Z [m], then optionally R P Y [rad]'
+
+
+def _pose_number(text: str) -> float:
+    try:
+        value = float(text)
+        if not math.isfinite(value):
+            raise ValueError
+        return value
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected {_POSE}, got {text!r}') from None
+
+
+class _BasePose(argparse.Action):
+    """``--base X Y Z [R P Y]`` as a scene file's ``base: {xyz, rpy}``: the root link's pose
+    in the world [m; rad, fixed-axis roll-pitch-yaw]."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if len(values) not in (3, 6):
+            raise argparse.ArgumentError(self, f'expected {_POSE}, got {len(values)} numbers')
+        setattr(namespace, self.dest, {'xyz': values[:3], 'rpy': values[3:] or [0.0, 0.0, 0.0]})
+
+
 def _on_off(text: str) -> bool:
     words = {'on': True, 'true': True, '1': True, 'off': False, 'false': False, '0': False}
     try:
@@ -71,6 +97,49 @@ def _on_off(text: str) -> bool:
 
 
 def _run(args, ros_args) -> int:
+    if args.verbose:
+        warnings.simplefilter('default', SimulationDetail)
+    placement = _robot_placement(args)
+    if not placement:
+        return _run_node(args, ros_args)
+    with tempfile.TemporaryDirectory(prefix='affine-joint-sim-') as folder:
+        args.scene = str(_robot_scene_file(scene_path(args.scene), placement, Path(folder)))
+        return _run_node(args, ros_args)
+
+
+def _robot_placement(args) -> dict:
+    """The keys of a scene file's ``urdf:`` entry that ``--base`` and ``--fixed-base`` /
+    ``--floating`` give (``base: {xyz, rpy}``, ``fixed_base``; empty without them).
+    ValueError naming the flag unless ``--scene`` names a URDF."""
+    placement = {key: value for key, value in (('base', args.base),
+                                               ('fixed_base', args.fixed_base))
+                 if value is not None}
+    if not placement:
+        return placement
+    flag, key = (('--base', 'base: {xyz: [x, y, z], rpy: [r, p, y]}') if 'base' in placement
+                 else ('--fixed-base' if args.fixed_base else '--floating',
+                       'fixed_base: true or false'))
+    if args.scene is None:
+        raise ValueError(f'{flag} places a URDF robot: give the robot with --scene ROBOT.urdf')
+    if not looks_like_urdf(scene_path(args.scene)):
+        raise ValueError(f'{flag} places a URDF robot given with --scene ROBOT.urdf; '
+                         f'{args.scene!r} is a scene YAML: write {key} beside its urdf: '
+                         'entry instead')
+    return placement
+
+
+def _robot_scene_file(urdf: Path, placement: dict, folder: Path) -> Path:
+    """A scene YAML in ``folder`` that names ``urdf`` with the ``placement`` keys beside it:
+    the flags become exactly what a scene file says."""
+    import yaml
+
+    path = folder / f'{urdf.stem}.yaml'
+    path.write_text(yaml.safe_dump({'urdf': str(urdf.resolve()), **placement}),
+                    encoding='utf-8')
+    return path
+
+
+def _run_node(args, ros_args) -> int:
     from rclpy.parameter import Parameter
 
     from affine_joint_sim.ros import run_node as node
@@ -180,7 +249,9 @@ def _add_run(commands):
         'run', help='run the simulator node',
         description='Run the affine_joint_sim ROS 2 node. Each flag sets the node parameter of '
                     'the same name and beats a --ros-args --params-file; unset flags keep the '
-                    'file\'s value or the default shown.')
+                    'file\'s value or the default shown. --base and --fixed-base/--floating '
+                    'place a URDF robot given with --scene, as a scene file\'s base: and '
+                    'fixed_base: do.')
     for name, spec in PARAMETERS.items():
         flag = '--' + name.replace('_', '-')
         extra = f' (default: {spec.default!r})'
@@ -192,7 +263,29 @@ def _add_run(commands):
         else:
             run.add_argument(flag, dest=name, type=type(spec.default), choices=spec.choices,
                              default=None, help=spec.help + extra)
+    _add_placement(run)
+    run.add_argument('-v', '--verbose', action='store_true',
+                     help='say each thing a robot\'s load simulates differently from its '
+                          'file (a URDF joint without limits, a mesh reduced), not only the '
+                          'one-line summary per robot')
     run.set_defaults(func=_run)
+
+
+def _add_placement(run):
+    """The flags that place a URDF robot given with --scene (its urdf: entry's keys)."""
+    robot = run.add_argument_group('URDF robot given with --scene ROBOT.urdf')
+    robot.add_argument('--base', nargs='*', type=_pose_number, action=_BasePose, default=None,
+                       metavar=('X Y Z', 'R P Y'),
+                       help='the root link\'s pose in the world: position [m] and fixed-axis '
+                            'roll, pitch, yaw [rad] (default: 0 0 0 0 0 0; a scene file\'s '
+                            'base: {xyz, rpy})')
+    held = robot.add_mutually_exclusive_group()
+    held.add_argument('--fixed-base', dest='fixed_base', action='store_const', const=True,
+                      default=None, help='weld the root link to the world (the default; a '
+                                         'scene file\'s fixed_base: true)')
+    held.add_argument('--floating', dest='fixed_base', action='store_const', const=False,
+                      help='let the root link move freely (legged robots; a scene file\'s '
+                           'fixed_base: false)')
 
 
 def _add_namespace(parser):

@@ -1,9 +1,60 @@
-"""Triangle meshes made smaller: vertex clustering (``decimated``), shared by the renderer's
-drawings and contact's static meshes."""
+"""Triangle meshes: reading a mesh file (``read_mesh``, for contact) and making one smaller
+(vertex clustering, ``decimated``, shared by the renderer's drawings and contact's static
+meshes)."""
+
+import struct
+import warnings
+import zipfile
 
 import numpy as np
 
-__all__ = ['decimated']
+from affine_joint_sim.scene import SceneError
+
+__all__ = ['read_mesh', 'decimated']
+
+
+def read_mesh(path: str, scale, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (n, 3) [m, in the geometry's frame, scaled per axis by ``scale``], faces
+    (k, 3)) of the mesh file at ``path``.
+
+    SceneError naming ``where`` if the file cannot be read (what the reader raises) or has no
+    finite vertices. The reader's own warnings (pycollada's NumPy deprecations) are not errors
+    of the mesh: they are held while it reads and then raised again as they were, so the
+    warning filters (``python -W``) treat them as the reader's.
+    """
+    import trimesh
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter('always')
+        try:
+            mesh = trimesh.load(path, force='mesh', process=False)
+            vertices = np.asarray(mesh.vertices, dtype=np.float64)
+            faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        except _unreadable() as exc:
+            problem = f'{where}: cannot read collision mesh {path} ({type(exc).__name__}: {exc})'
+        else:
+            problem = None
+    for record in said:
+        warnings.warn_explicit(record.message, record.category, record.filename, record.lineno,
+                               source=record.source)
+    if problem is not None:
+        raise SceneError(problem)
+    if vertices.ndim != 2 or len(vertices) == 0 or not np.isfinite(vertices).all():
+        raise SceneError(f'{where}: collision mesh {path} has no finite vertices')
+    return vertices * np.asarray(scale, dtype=np.float64), faces
+
+
+def _unreadable() -> tuple[type[Exception], ...]:
+    """What trimesh and its readers raise for a missing, bad or unknown file: OSError,
+    ValueError (no such file, an unknown type, bad text), LookupError (a face indexing a missing
+    vertex), struct.error (a short binary STL), zipfile.BadZipFile (3MF) and, when pycollada is
+    installed, its DaeError (DAE)."""
+    kinds = (OSError, ValueError, LookupError, struct.error, zipfile.BadZipFile)
+    try:
+        from collada.common import DaeError
+    except ImportError:
+        return kinds
+    return (*kinds, DaeError)
 
 
 def decimated(vertices: np.ndarray, faces: np.ndarray, most: int) -> np.ndarray:

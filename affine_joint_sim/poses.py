@@ -48,8 +48,3 @@ class LinkFrames:
             self.names = [b.name for b in scene.bodies]
             self.body = np.arange(len(scene.bodies))
             self.local = np.tile(np.eye(4), (len(scene.bodies), 1, 1))
-
-    def world(self, body_transforms: np.ndarray) -> np.ndarray:
-        """World transforms of the frames, (..., n_frames, 4, 4), from the bodies' rigid
-        transforms (..., n_bodies, 4, 4)."""
-        return body_transforms[..., self.body, :, :] @ self.local

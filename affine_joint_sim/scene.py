@@ -22,7 +22,7 @@ from affine_joint_sim.schema_base import (Number, OneOf, PositiveFloat, StrictMo
 
 __all__ = ['Scene', 'SceneSettings', 'SceneError', 'StrictModel', 'Body', 'Joint', 'Limit',
            'Drive', 'Shape', 'Solver', 'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh',
-           'Sensor', 'SENSOR_TYPES', 'topic_token', 'validation_report']
+           'Sensor', 'SENSOR_TYPES', 'looks_like_urdf', 'topic_token', 'validation_report']
 
 # Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
 # names use topic_token(name).
@@ -303,10 +303,10 @@ class SceneSettings(StrictModel):
     solver: Solver = Solver()
 
 
-def _looks_like_xml(path: Path) -> bool:
-    """Whether the file starts, after a byte-order mark and blank space, with ``<`` (an XML
-    declaration, a comment or <robot>): YAML never does. False when it cannot be read (the
-    YAML reader then says why)."""
+def looks_like_urdf(path: Path) -> bool:
+    """Whether ``Scene.load`` reads the file as a URDF: it starts, after a byte-order mark and
+    blank space, with ``<`` (an XML declaration, a comment or <robot>), which YAML never does.
+    False when it cannot be read (the YAML reader then says why)."""
     try:
         with path.open('rb') as file:
             head = file.read(4096)
@@ -341,7 +341,7 @@ class Scene(SceneSettings):
         ``.xacro``, none): XML is a URDF, read with default settings; anything else a scene
         YAML. ``overrides`` replace top-level keys of the file (``ground=[{'height': 0.0}]``;
         for a URDF, or a YAML naming one, the ``urdf:`` entry's keys)."""
-        if _looks_like_xml(Path(path)):
+        if looks_like_urdf(Path(path)):
             return cls.from_urdf(path, **overrides)
         return cls.from_yaml(path, overrides)
 

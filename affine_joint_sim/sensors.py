@@ -21,10 +21,11 @@ times the frame's pose in the body. Readings are expressed in the sensor frame:
 The arithmetic is plain Python floats, per sensor and environment: NumPy would spend about a
 microsecond on each operation on a 3-vector (one IMU reads in about 30 µs on the shared 2-core
 CPU, each further one about 10 µs, per environment; a contact sensor costs what
-``Stepper.contacts`` does, computed once per read for all contact sensors). Only + − × ÷ and
-√ (no LAPACK, no BLAS, no reordered sums): an IMU's readings of a state are the same bits on
-every machine, like the state itself (README.md#reproducibility); a contact sensor sums the
-forces of ``Stepper.contacts`` as they come (its barrier force takes the C library's log).
+``Stepper.contacts`` does, computed once per state for all contact sensors and markers). Only
++ − × ÷ and √ (no LAPACK, no BLAS, no reordered sums): an IMU's readings of a state are the
+same bits on every machine, like the state itself (README.md#reproducibility); a contact
+sensor sums the forces of ``Stepper.contacts`` as they come (the report kernel's, with the
+kernels' own log).
 """
 
 import math

@@ -22,20 +22,21 @@ from affine_joint_sim.physics.energy import mechanical_energy
 from affine_joint_sim.physics.fields import (CONTACT_STATS, COUPLED_STATS, PROBLEM_COLUMNS,
                                              STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
                                              array_sizes, device_model)
-from affine_joint_sim.physics.frames import POSE_COLUMNS
+from affine_joint_sim.physics.frames import FRAME_COLUMNS, POSE_COLUMNS
+from affine_joint_sim.physics.report import REPORT_COLUMNS, REPORT_ROOM
 from affine_joint_sim.physics.joint_kinds import joint_kind
-from affine_joint_sim.physics.kernels import frame_kernel, scalar_of, step_kernels
+from affine_joint_sim.physics.kernels import (frame_kernel, report_kernel, scalar_of,
+                                              step_kernels)
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
 from affine_joint_sim.physics.contact_model import refuse_touching
-from affine_joint_sim.physics.contact_report import active_contacts
 from affine_joint_sim.physics.model import build_model, largest_step_efforts
 from affine_joint_sim.physics.newton import HALVINGS
-from affine_joint_sim.physics.pair_geometry import pair_gap
+from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap
 from affine_joint_sim.placement import body_rows, free_body
-from affine_joint_sim.poses import LinkFrames, rigid_transforms
+from affine_joint_sim.poses import LinkFrames
 from affine_joint_sim.scene import Scene
 from affine_joint_sim.sensors import SensorSet
-from affine_joint_sim.sim_warnings import SimulationWarning
+from affine_joint_sim.sim_warnings import SimulationWarning, summarised
 
 __all__ = ['Stepper', 'SimulationWarning']
 
@@ -57,7 +58,6 @@ _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_re
 # (State arrays, and the Scratch ones the contact report needs).
 _OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort'),
                   'contact_record': ('nearest_seen', 'most_contacts'),
-                  'contact_forces': ('q_n', 'friction_normal', 'normal_damping'),
                   'stats': ('stats_int', 'stats_float'), 'bodies': ('q', 'v'),
                   'coordinate': ('joint_coordinate',), 'history': ('v_prev',)}
 
@@ -110,7 +110,8 @@ class Stepper:
         if len(self._chunks) > 1:
             self._pool = ThreadPoolExecutor(len(self._chunks) - 1, 'affine-joint-sim-step')
             weakref.finalize(self, self._pool.shutdown, wait=False)
-        self._host = build_model(scene)
+        with summarised(f'scene {scene.name!r}'):     # one line for its meshes reduced
+            self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs)
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
         # a joint's index by name, and the joints that take a command: a control loop sets
@@ -118,7 +119,11 @@ class Stepper:
         self._index_of = {joint.name: k for k, joint in enumerate(scene.joints)}
         self._commanded = np.array([k for k, j in enumerate(scene.joints)
                                     if joint_kind(j.type).command is not None], dtype=np.intp)
+        self._commanded_limit = self._effort_limit[self._commanded]
         self._links = LinkFrames(scene)
+        self._link_read = None          # link_transforms' replay, captured on its first read
+        self._report = None             # contacts' replay, captured on its first read
+        self._pair_name_cache = {}
         # the scene's sensors (README.md#sensors); None without any: nothing to pay for
         self._sensors = SensorSet(scene) if scene.sensors else None
         self._allocate()
@@ -225,13 +230,13 @@ class Stepper:
                              f'{len(index)}) in command_joint_names order, got {tau.shape}')
         if not len(index):              # no joint takes a command (a lone box): nothing to set
             return
-        bad = ~np.isfinite(tau).reshape(-1, len(index)).all(axis=0)
-        if bad.any():
-            raise ValueError('set_torques: torque must be finite for ' + ', '.join(
-                self.scene.joints[k].name for k in index[bad]))
-        limits = self._effort_limit[index]
-        over = (np.abs(tau) > limits).reshape(-1, len(index)).any(axis=0)
-        if over.any():
+        limits = self._commanded_limit
+        if not (np.abs(tau) <= limits).all():       # NaN, ±Inf or over a limit (rare)
+            bad = ~np.isfinite(tau).reshape(-1, len(index)).all(axis=0)
+            if bad.any():
+                raise ValueError('set_torques: torque must be finite for ' + ', '.join(
+                    self.scene.joints[k].name for k in index[bad]))
+            over = (np.abs(tau) > limits).reshape(-1, len(index)).any(axis=0)
             self._say('|torque| above effort_limit, clamped: ' + ', '.join(
                 f'{self.scene.joints[k].name} ({self._effort_limit[k]:g} N·m)'
                 for k in index[over]), stacklevel=3)
@@ -305,9 +310,9 @@ class Stepper:
         for array in (self._state.history_ready, self._control.joint_target,
                       self._control.joint_drive_enabled, self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float,
-                      self._scratch.friction_normal, self._scratch.normal_damping,
-                      self._scratch.near_count):
+                      self._scratch.friction_normal, self._scratch.normal_damping):
             array.zero_()
+        self._list_near(q0)
         x0 = np.ascontiguousarray(np.broadcast_to(h.joint_initial_position,
                                                   (n, h.joint_count)))
         for array in (self._state.joint_coordinate, self._state.joint_coordinate_prev,
@@ -325,6 +330,20 @@ class Stepper:
         self._downloads.stale()
         self._contacts = None          # computed again when next asked for
         self._steps = 0
+
+    def _list_near(self, q: np.ndarray) -> None:
+        """Each environment's near list (``scratch.near_pairs``, as a step gathers it) for
+        states ``q`` (envs, n_bodies, 12): its pairs closer than d̂, so that ``contacts`` reads
+        a state no step has reached yet (the start, a reset, a placement)."""
+        if not self._host.has_contact:
+            return
+        pairs, count = self._scratch.near_pairs.numpy(), self._scratch.near_count.numpy()
+        for env in range(self._envs):
+            near = near_pairs(vars(self._host), q[env], self._host.contact_d_hat)
+            pairs[env, :len(near)] = near
+            count[env] = len(near)
+        self._store(self._scratch.near_pairs, pairs)
+        self._store(self._scratch.near_count, count)
 
     def set_body_state(self, name: str, pose, linear_velocity=(0.0, 0.0, 0.0),
                        angular_velocity=(0.0, 0.0, 0.0), env: int = 0) -> None:
@@ -429,8 +448,20 @@ class Stepper:
     def link_transforms(self) -> np.ndarray:
         """Rigid world transforms of the link frames, (..., n_links, 4, 4): each body's pose
         with A replaced by its nearest rotation (polar decomposition), times the link's pose
-        in the body."""
-        return self._out(self._links.world(rigid_transforms(self._read('q'))))
+        in the body. One replay of a captured launch for every environment's links (the
+        first read compiles and captures it); ``pose_reader`` gives chosen frames as
+        positions and quaternions."""
+        if self._link_read is None:
+            links, envs = self._links, self._envs
+            self._link_read = self._frame_reader(
+                np.tile(links.body, envs), np.tile(links.local, (envs, 1, 1)),
+                np.repeat(np.arange(envs), len(links.names)))
+        frames = self._link_read().reshape(self._envs, len(self._links.names), FRAME_COLUMNS)
+        out = np.zeros((*frames.shape[:2], 4, 4))
+        out[..., :3, :3] = frames[..., POSE_COLUMNS:].reshape(*frames.shape[:2], 3, 3)
+        out[..., :3, 3] = frames[..., :3]
+        out[..., 3, 3] = 1.0
+        return self._out(out)
 
     def pose_reader(self, body, local, env: int = 0, parent=None, parent_local=None):
         """A function that returns, each time it is called, the rigid world poses of frames on
@@ -440,13 +471,26 @@ class Stepper:
         nearest to the body's A (physics.frames). With ``parent`` (a body per frame, −1: the
         world) and ``parent_local`` (4×4 each), each pose is in that parent frame instead (the
         transforms of /tf). One replay of a captured launch, no Python per frame."""
+        local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
+        read = self._frame_reader(body, local, np.full(len(local), env), parent, parent_local)
+
+        def poses() -> np.ndarray:
+            return read()[:, :POSE_COLUMNS]
+
+        poses.keep = read
+        return poses
+
+    def _frame_reader(self, body, local, env, parent=None, parent_local=None):
+        """``pose_reader``'s replay, one environment per frame (``env``): each call returns
+        the (n, FRAME_COLUMNS) rows of ``physics.frames`` (position, quaternion, rotation)."""
         k = self._k
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
         if parent is None:
             parent, parent_local = np.full(len(local), -1), np.tile(np.eye(4), (len(local), 1, 1))
         parent_local = np.asarray(parent_local, dtype=np.float64).reshape(-1, 4, 4)
         dtype = k.numpy_scalar
-        inputs = [wp.array(np.asarray(body, dtype=np.int32), dtype=int, device=self.device),
+        inputs = [wp.array(np.asarray(env, dtype=np.int32), dtype=int, device=self.device),
+                  wp.array(np.asarray(body, dtype=np.int32), dtype=int, device=self.device),
                   wp.array(local[:, :3, :3].astype(dtype), dtype=k.mat33, device=self.device),
                   wp.array(local[:, :3, 3].astype(dtype), dtype=k.vec3, device=self.device),
                   wp.array(np.asarray(parent, dtype=np.int32), dtype=int, device=self.device),
@@ -454,24 +498,31 @@ class Stepper:
                            device=self.device),
                   wp.array(parent_local[:, :3, 3].astype(dtype), dtype=k.vec3,
                            device=self.device)]
-        out = wp.zeros((len(local), POSE_COLUMNS), dtype=wp.float64, device=self.device)
-        host = host_copy(out, not self.device.is_cpu)
-        kernel = frame_kernel(k.scalar)
+        out = wp.zeros((len(local), FRAME_COLUMNS), dtype=wp.float64, device=self.device)
+        replay = self._replay(frame_kernel(k.scalar), len(local), [self._state.q, *inputs],
+                              [out])
+        return lambda: replay()[0]
+
+    def _replay(self, kernel, dim, inputs: list, outputs: list):
+        """A function that launches ``kernel`` over ``dim`` with ``inputs`` then ``outputs``
+        (Warp arrays) as one replay of a captured graph and returns the outputs' host views
+        (copied from a GPU), valid until the next call."""
+        on_host = [host_copy(array, not self.device.is_cpu) for array in outputs]
         wp.load_module(kernel.module, device=self.device)
         with wp.ScopedCapture(device=self.device) as capture:
-            wp.launch(kernel, dim=len(local), inputs=[self._state.q, int(env), *inputs, out],
-                      device=self.device)
-            if host is not out:
-                wp.copy(host, out)
-        graph, view = capture.graph, host.numpy()
+            wp.launch(kernel, dim=dim, inputs=[*inputs, *outputs], device=self.device)
+            for array, host in zip(outputs, on_host):
+                if host is not array:
+                    wp.copy(host, array)
+        graph, views = capture.graph, [host.numpy() for host in on_host]
 
-        def read() -> np.ndarray:
+        def read() -> list[np.ndarray]:
             wp.capture_launch(graph)
             if not self.device.is_cpu:
                 wp.synchronize_device(self.device)
-            return view
+            return views
 
-        read.keep = (inputs, out, host)      # the graph refers to these arrays
+        read.keep = (inputs, outputs, on_host)      # the graph refers to these arrays
         return read
 
     @property
@@ -550,21 +601,61 @@ class Stepper:
         """The active contacts (pairs closer than d̂) at the current state: a list of dicts
         (``body``, ``other``: the half-space or fixed body, ``point`` [m, world] on the other's
         surface, ``normal`` (unit, towards the body), ``distance`` [m], ``normal_force`` [N],
-        ``friction_force`` [N, world, on the body]; physics.contact_report), one list per
-        environment when batched; empty without contact. Computed once per state: the same
-        lists until the next step or reset (read them, do not change them)."""
+        ``friction_force`` [N, world, on the body]), one list per environment when batched;
+        empty without contact. The pairs the last step evaluated, by pair number
+        (``physics.report``: one replay of a captured launch over every environment), computed
+        once per state: the same lists until the next step or reset (read them, do not change
+        them)."""
         if not self._host.has_contact:
             per_env = [[] for _ in range(self._envs)]
         else:
             if self._contacts is None:      # once per state: markers and sensors both ask
-                q, q_n, normal, damping = (self._read(name) for name in (
-                    'q', 'q_n', 'friction_normal', 'normal_damping'))
-                self._contacts = [active_contacts(self._host, q[e], q_n[e], normal[e],
-                                                  damping[e], self.body_names,
-                                                  self._host.static_names)
-                                  for e in range(self._envs)]
+                self._contacts = self._report_contacts()
             per_env = self._contacts
         return per_env if self._batched else per_env[0]
+
+    def _report_contacts(self) -> list[list[dict]]:
+        """Each environment's active contacts at the current state (``contacts``), by pair
+        number."""
+        if self._report is None:
+            self._report = self._capture_report(REPORT_ROOM)
+        counts, pairs, rows = self._report()
+        if counts.max() > pairs.shape[1]:           # more than there was room for
+            self._report = self._capture_report(int(counts.max()))
+            counts, pairs, rows = self._report()
+        out = []
+        for env in range(self._envs):
+            found = []
+            for k in range(counts[env]):
+                row = rows[env, k]
+                body, other = self._pair_names(int(pairs[env, k]))
+                found.append((int(pairs[env, k]), {
+                    'body': body, 'other': other, 'point': row[4:7].copy(),
+                    'normal': row[1:4].copy(), 'distance': float(row[0]),
+                    'normal_force': float(row[7]), 'friction_force': row[8:11].copy()}))
+            out.append([contact for _, contact in sorted(found, key=lambda item: item[0])])
+        return out
+
+    def _capture_report(self, room: int):
+        """The contact report's replay with ``room`` rows per environment: a function
+        returning (counts (envs,), pairs (envs, room), rows (envs, room, REPORT_COLUMNS)
+        float64), valid until the next call."""
+        arrays = [wp.zeros(self._envs, dtype=int, device=self.device),
+                  wp.zeros((self._envs, room), dtype=int, device=self.device),
+                  wp.zeros((self._envs, room, REPORT_COLUMNS), dtype=wp.float64,
+                           device=self.device)]
+        return self._replay(report_kernel(self._k.scalar, self._host.has_body_pairs),
+                            self._envs, [self._model, self._state, self._scratch], arrays)
+
+    def _pair_names(self, pair: int) -> tuple[str, str]:
+        """(the moving body's name, the other side's: a half-space, a fixed body or a moving
+        body) of a contact pair, looked up once per pair."""
+        if pair not in self._pair_name_cache:
+            gap = pair_gap(vars(self._host), self._read('q')[0], pair)
+            other = (self._host.static_names[gap.static] if gap.other is None
+                     else self.body_names[gap.other])
+            self._pair_name_cache[pair] = (self.body_names[gap.body], other)
+        return self._pair_name_cache[pair]
 
     @property
     def contact_record(self) -> dict | None:

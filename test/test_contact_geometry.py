@@ -11,7 +11,7 @@ import pytest
 
 from affine_joint_sim.physics.mesh_points import MAX_MESH_POINTS, reduce_points
 from affine_joint_sim.scene import Scene, SceneError
-from affine_joint_sim.sim_warnings import SimulationWarning
+from affine_joint_sim.sim_warnings import SimulationDetail, SimulationWarning
 from affine_joint_sim.stepper import Stepper
 from helpers.barrier import resting_distance
 
@@ -79,9 +79,11 @@ def test_a_fine_mesh_is_reduced_to_its_extremes_with_a_warning_naming_the_body(t
                     'position': [0.0, 0.0, 0.1],
                     'collision': [{'mesh': {'uri': str(tmp_path / 'ball.stl')}}]}],
         'ground': {'height': 0.0}})
-    with pytest.warns(SimulationWarning, match=rf"body 'ball' \(bodies\[0\]\.collision\[0\]\):"
+    with pytest.warns(SimulationDetail, match=rf"body 'ball' \(bodies\[0\]\.collision\[0\]\):"
                       rf".* has 162 distinct vertices; contact uses {MAX_MESH_POINTS}"):
-        sim = Stepper(scene)
+        with pytest.warns(SimulationWarning, match=r"^scene '.*': collision meshes reduced for "
+                          rf'contact: 1 \(worst: ball.stl 162 → {MAX_MESH_POINTS} vertices\)'):
+            sim = Stepper(scene)
     for _ in range(100):
         sim.step()
         assert sim.stats['min_distance'] > 0.0
@@ -207,6 +209,7 @@ def test_run_adds_a_ground_under_any_scene_and_a_urdf_robot_touches_it_with_its_
     assert done.returncode == 2, done.stdout + done.stderr
     assert done.stderr.count('error') == 1 and 'Traceback' not in done.stderr
     assert "_shank' starts 0.24 m inside ground" in done.stderr.splitlines()[-1]
+    assert "base: {xyz: [x, y, z]} or `affine-joint-sim run --base X Y Z`" in done.stderr
     # the standing scene with its ground lowered 5 cm: the robot drops onto it
     done = cli('run', '--scene', 'quadruped', '--ground', -0.05, '--mode', 'fast', '--duration',
                0.3)

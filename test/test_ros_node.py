@@ -508,7 +508,8 @@ def test_a_warning_is_one_line_and_warp_says_nothing_on_a_cpu(tmp_path):
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     lines = done.stderr.splitlines()
-    warning = [line for line in lines if 'lower = upper = 0' in line]
-    assert len(warning) == 1 and warning[0].startswith('SimulationWarning: '), done.stderr
+    warning = [line for line in lines if 'joints locked by lower = upper: 1' in line]
+    assert len(warning) == 1 and warning[0].startswith('SimulationWarning: locked.urdf: '), \
+        done.stderr
     assert not any('.py:' in line or 'warnings.warn' in line or 'Warp' in line
                    for line in lines), done.stderr

@@ -396,3 +396,22 @@ def test_set_torques_sets_every_command_joint_at_once_like_set_torque():
         at_once.set_torques([1.0, 2.0, 3.0])
     with pytest.raises(ValueError, match='torque must be finite for rail'):
         at_once.set_torques([math.nan, 0.0])
+
+
+def test_link_transforms_are_each_bodys_polar_rotation_times_the_links_pose():
+    """``link_transforms`` (one replay of the frame kernel over every environment's links)
+    against the polar decomposition by SVD of each body's A (``poses.rigid_transforms``)
+    times the link's pose on its body: the packaged quadruped's 17 links, two environments
+    driven apart, after it has landed and swung (its A strained by the contact)."""
+    from affine_joint_sim.poses import LinkFrames, rigid_transforms
+    scene = Scene.load(SCENES / 'quadruped.yaml')
+    sim = Stepper(scene, num_envs=2)
+    swing = np.where(np.arange(len(sim.command_joint_names)) % 3 == 1, 2.0, -1.0)
+    sim.set_torques(np.stack([swing, -swing]))
+    for _ in range(200):
+        sim.step()
+    links = LinkFrames(scene)
+    bodies = rigid_transforms(sim.body_q)                   # (2, n_bodies, 4, 4)
+    expected = bodies[:, links.body] @ links.local
+    assert not np.allclose(expected[0], expected[1], atol=1e-3)     # two different states
+    np.testing.assert_allclose(sim.link_transforms, expected, rtol=0.0, atol=1e-12)

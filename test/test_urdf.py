@@ -15,7 +15,7 @@ import pytest
 from affine_joint_sim.bench.references import RigidTree
 from affine_joint_sim.physics.model import build_model
 from affine_joint_sim.scene import Scene, SceneError
-from affine_joint_sim.sim_warnings import SimulationWarning
+from affine_joint_sim.sim_warnings import SimulationDetail, SimulationWarning
 from affine_joint_sim.stepper import Stepper
 from helpers.imports import modules_loaded_by
 
@@ -294,7 +294,7 @@ def test_a_joint_whose_zero_is_outside_its_limits_starts_at_the_nearest_one_and_
         tmp_path):
     """Before, the joint started at 0, 0.82 rad inside its limit: every step was rejected and
     the robot never moved, without a word beyond 'reduce dt'."""
-    with pytest.warns(SimulationWarning, match="'hinge' starts at its lower limit 0.82 rad"):
+    with pytest.warns(SimulationDetail, match="'hinge' starts at its lower limit 0.82 rad"):
         scene = load(tmp_path, _limited_pendulum(0.82, 5.46))
     sim = Stepper(scene)
     assert sim.angles[0] == pytest.approx(0.82, abs=1e-12)
@@ -306,7 +306,7 @@ def test_a_joint_whose_zero_is_outside_its_limits_starts_at_the_nearest_one_and_
         sim.step()
     assert sim.problem_totals['non_finite'] == sim.problem_totals['angle_aliased'] == 0
     assert sim.angles[0] > 0.9
-    with pytest.warns(SimulationWarning, match='upper limit -0.5 rad'):
+    with pytest.warns(SimulationDetail, match='upper limit -0.5 rad'):
         assert load(tmp_path, _limited_pendulum(-2.0, -0.5)).joints[0].initial_position == -0.5
 
 
@@ -335,7 +335,8 @@ def mesh_warnings(path, monkeypatch, env=None, **overrides):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter('always')
         Scene.from_urdf(path, **overrides)
-    return [str(w.message) for w in caught if 'mesh' in str(w.message)]
+    return [str(w.message) for w in caught
+            if w.category is SimulationDetail and 'mesh' in str(w.message)]
 
 
 def test_package_uris_resolve_by_every_convention(tmp_path, monkeypatch):
@@ -419,11 +420,12 @@ def error_of(tmp_path, text, **overrides) -> str:
 
 
 def warnings_of(tmp_path, text, **overrides) -> list[str]:
+    """The scene and what its load says item by item (the details behind its summary)."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter('always')
         scene = load(tmp_path, text, **overrides)
-    assert all(issubclass(w.category, SimulationWarning) for w in caught)
-    return scene, [str(w.message) for w in caught]
+    assert all(issubclass(w.category, (SimulationWarning, SimulationDetail)) for w in caught)
+    return scene, [str(w.message) for w in caught if w.category is SimulationDetail]
 
 
 @pytest.mark.parametrize('link, words', [
@@ -690,7 +692,7 @@ def test_light_fingers_pushed_apart_on_a_heavy_arm_follow_the_rigid_reference():
 def test_a_zero_width_limit_says_it_locks_the_joint(tmp_path):
     """SolidWorks exports (and example-robot-data's double pendulums) give lower = upper = 0:
     the joint was locked without a word."""
-    with pytest.warns(SimulationWarning, match="'hinge' .revolute. has lower = upper = 0: its "
+    with pytest.warns(SimulationDetail, match="'hinge' .revolute. has lower = upper = 0: its "
                                                'limit locks it there'):
         load(tmp_path, _limited_pendulum(0, 0))
 
@@ -707,7 +709,7 @@ def test_min_mass_gives_a_massless_moving_link_a_mass(tmp_path):
                                                   izz=0.001) + '</link>')
     with pytest.raises(SceneError, match="'ghost' moves .* or set min_mass"):
         load(tmp_path, text)
-    with pytest.warns(SimulationWarning) as said:      # its mass, then its inertia floor
+    with pytest.warns(SimulationDetail) as said:       # its mass, then its inertia floor
         scene = load(tmp_path, text, min_mass=0.01)
     assert "'ghost' weighs 0 kg: given min_mass 0.01 kg" in str(said[0].message)
     assert "'ghost': inertia [0, 0, 0] is (nearly) degenerate" in str(said[1].message)

@@ -4,8 +4,8 @@ A 1 kg box (0.1 m), ball (radius 5 cm) and cylinder (radius 5 cm, 0.1 m long, st
 dropped onto the ground from rest, their lowest point ``height`` above it, at several dt
 under BDF1 and BDF2; then the packaged gripper arm with a free base falls flat from 0.4 m
 (its links land one after another, joints free). Per run: the rebound (the highest the
-lowest point, or the arm's centre of mass, rises after the first contact, above where it
-comes to rest) as a fraction of the fall, and the largest gain of mechanical energy
+lowest point, or the arm's centre of mass, rises once it turns up after the first contact,
+above where it comes to rest) as a fraction of the fall, and the largest gain of mechanical energy
 (``Stepper.energy``) in one step. A passive scene must never gain energy, and an impact
 should be close to inelastic as in MuJoCo (restitution 0) and most robot simulators. The
 contact damping ratio ``contact.damping`` is the knob: its curve is measured at the finest
@@ -58,8 +58,13 @@ def _run(sim, steps: int, height_of) -> tuple:
 
 
 def _rebound(heights: np.ndarray, first_contact: int) -> float:
-    """How high [m] the trace rises after ``first_contact`` above where it ends (at rest)."""
-    return float(heights[first_contact:].max() - heights[-1])
+    """How high [m] the trace rises, once it turns up after ``first_contact``, above where it
+    ends (at rest); 0 if it never turns up. A body that sinks into the barrier's reach and
+    creeps back out to its resting gap has not rebounded."""
+    rising = np.flatnonzero(np.diff(heights[first_contact:]) > 0.0)
+    if rising.size == 0:
+        return 0.0
+    return max(float(heights[first_contact + rising[0]:].max() - heights[-1]), 0.0)
 
 
 def drop(shape: str, height: float, dt: float, integrator: str,
@@ -136,8 +141,9 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
              for shape in SHAPES for height in settings.curve_heights
              for damping in settings.dampings]
     text = ('## Impacts: drops onto the ground under the default contact, float64\n\n'
-            'Rebound: how high the lowest point (the arm: its centre of mass) rises after the '
-            'first contact above where it comes to rest, over the fall. Largest energy gain: '
+            'Rebound: how high the lowest point (the arm: its centre of mass) rises, once it '
+            'turns up after the first contact, above where it comes to rest, over the fall. '
+            'Largest energy gain: '
             'the most the mechanical energy grew in one step (rounding is ~1e-12 J).\n\n'
             + markdown_table(rows, COLUMNS)
             + f'\n\n## The damping knob: rebound against contact.damping (BDF2, dt '

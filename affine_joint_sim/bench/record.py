@@ -2,8 +2,10 @@
 writer's work per split at split 1 and split 10,000.
 
 Runs: the node in a child process (``affine-joint-sim run``) in ``realtime`` mode, where this
-process subscribes to joint_states and reports the largest gap between two arrivals and the
-real-time factor the node reached, and in ``fast`` mode (steps/s). Per split: a synthetic bag
+process subscribes to joint_states and reports the gaps between two arrivals (median, p99,
+largest, how many over 50 ms), the node's garbage collections while stepping and the
+real-time factor the node reached, and in ``fast`` mode (steps/s); and ``hiccup_runs``
+realtime runs of the arm with a bag, for the gaps a long run shows. Per split: a synthetic bag
 with the node's topics whose metadata already lists N − 1 splits, then one split of a second
 of the pendulum in realtime (100 joint_states and /clock messages) opened, written and
 listed; the time the writer thread spends on it is measured directly, on this thread. And the
@@ -21,6 +23,7 @@ from typing import NamedTuple
 from affine_joint_sim.bench.report import Column, markdown_table, publish
 from affine_joint_sim.bench.ros_loop import client, node_process, spin_until
 from affine_joint_sim.bench.section import add_section
+from affine_joint_sim.ros.collector import settle
 from affine_joint_sim.ros.dds import use_loopback_dds
 
 __all__ = ['add_parser', 'run']
@@ -31,19 +34,24 @@ class Settings(NamedTuple):
     fast_seconds: float         # wall seconds of each fast-mode run (about)
     splits: int                 # the later split whose cost is measured
     repeats: int                # splits measured at each place (median)
+    hiccup_runs: int            # realtime runs of the arm with a bag, for their gaps
+    hiccup_seconds: float       # simulated (= wall) seconds of each of them
 
 
-FULL = Settings(realtime_seconds=12.0, fast_seconds=3.0, splits=10_000, repeats=5)
-QUICK = Settings(realtime_seconds=3.0, fast_seconds=1.0, splits=1_000, repeats=3)
+FULL = Settings(realtime_seconds=12.0, fast_seconds=3.0, splits=10_000, repeats=5,
+                hiccup_runs=10, hiccup_seconds=60.0)
+QUICK = Settings(realtime_seconds=3.0, fast_seconds=1.0, splits=1_000, repeats=3,
+                 hiccup_runs=2, hiccup_seconds=5.0)
 SCENES = ('pendulum', 'arm')
 _STEPS_PER_SIM_SECOND = {'pendulum': 100.0, 'arm': 50.0}   # fast-mode sim s per wall s (about)
-_GAP = 0.1          # a gap between two joint_states longer than this [s] is counted
+_GAP = 0.05         # a gap between two joint_states longer than this [s] is counted
 
 
 def _run_node(scene: str, flags: list[str], record: bool) -> dict:
-    """Run the node to its end with one joint_states subscriber here; the arrival gaps and
-    the node's summary and warnings."""
+    """Run the node to its end with one joint_states subscriber here; the arrival gaps, the
+    node's garbage collections while stepping, its summary and warnings."""
     node, executor, topics = client()
+    settle()        # this subscriber's own collections are no gap of the node's
     arrivals = []
     states = topics['joint_states']
     node.create_subscription(states.msg_class, states.name(),
@@ -57,12 +65,17 @@ def _run_node(scene: str, flags: list[str], record: bool) -> dict:
         finally:
             node.destroy_node()
             node.context.try_shutdown()
-    gaps = [b - a for a, b in zip(arrivals, arrivals[1:])]
+    gaps = sorted(b - a for a, b in zip(arrivals, arrivals[1:])) or [float('nan')]
+    collections = summary.split('garbage collections while stepping: ')[1].split()
     return {'scene': scene, 'record': 'yes' if record else 'no',
             'steps_per_s': float(summary.split(' steps/s')[0].rsplit(' ', 1)[1]),
             'factor': float(summary.split('real-time factor ')[1].split()[0]),
-            'largest_gap_ms': 1e3 * max(gaps, default=float('nan')),
+            'median_gap_ms': 1e3 * statistics.median(gaps),
+            'p99_gap_ms': 1e3 * gaps[int(0.99 * (len(gaps) - 1))],
+            'largest_gap_ms': 1e3 * gaps[-1],
             'long_gaps': sum(g > _GAP for g in gaps),
+            'full_collections': int(collections[1].strip('(')),
+            'longest_collection_ms': float(collections[4]),
             'behind_warnings': log.count('cannot keep up'),
             'late_splits': log.count('late split')}
 
@@ -71,6 +84,12 @@ def realtime(scene: str, settings: Settings, record: bool) -> dict:
     """A realtime run of ``realtime_seconds``."""
     return _run_node(scene, ['--mode', 'realtime', '--duration',
                              str(settings.realtime_seconds)], record)
+
+
+def hiccups(settings: Settings) -> list[dict]:
+    """``hiccup_runs`` realtime runs of the arm with a bag, ``hiccup_seconds`` each."""
+    return [dict(realtime('arm', settings._replace(realtime_seconds=settings.hiccup_seconds),
+                          True), run=k + 1) for k in range(settings.hiccup_runs)]
 
 
 def fast(scene: str, settings: Settings, record: bool) -> dict:
@@ -171,8 +190,12 @@ def split_cost(splits: int, repeats: int) -> dict:
 RUN_COLUMNS = [Column('scene', 'scene'), Column('record', '--record'),
                Column('factor', 'real-time factor', '{:.2f}'),
                Column('steps_per_s', 'steps/s', '{:.0f}'),
-               Column('largest_gap_ms', 'largest joint_states gap [ms]', '{:.0f}'),
+               Column('median_gap_ms', 'joint_states gap: median [ms]', '{:.1f}'),
+               Column('p99_gap_ms', 'p99 [ms]', '{:.1f}'),
+               Column('largest_gap_ms', 'largest [ms]', '{:.1f}'),
                Column('long_gaps', f'gaps > {_GAP * 1e3:.0f} ms'),
+               Column('full_collections', 'full garbage collections while stepping'),
+               Column('longest_collection_ms', 'longest collection [ms]', '{:.2f}'),
                Column('behind_warnings', '"cannot keep up" warnings'),
                Column('late_splits', 'late splits')]
 SPLIT_COLUMNS = [Column('split', 'split'), Column('open_ms', 'open [ms]', '{:.1f}'),
@@ -188,9 +211,14 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
     fast_rows = [fast(scene, settings, record) for scene in SCENES for record in (False, True)]
     splits = [split_cost(n, settings.repeats) for n in (1, settings.splits)]
     handed = hand_off(settings.repeats)
+    hiccup_rows = hiccups(settings)
     publish(results, 'record_realtime',
             f'### realtime runs of {settings.realtime_seconds:g} s, with and without a bag\n\n'
             + markdown_table(realtime_rows, RUN_COLUMNS) + '\n', realtime_rows)
+    publish(results, 'record_hiccups',
+            f'### the arm in realtime with a bag: {settings.hiccup_runs} runs of '
+            f'{settings.hiccup_seconds:g} s\n\n' + markdown_table(
+                hiccup_rows, [Column('run', 'run'), *RUN_COLUMNS[2:]]) + '\n', hiccup_rows)
     publish(results, 'record_fast', '### fast mode, with and without a bag\n\n'
             + markdown_table(fast_rows, RUN_COLUMNS) + '\n', fast_rows)
     publish(results, 'record_splits', "### the bag writer's work per split (pendulum topics, "

@@ -18,14 +18,18 @@ from types import SimpleNamespace
 
 import warp as wp
 
-__all__ = ['ADVANCE_STEPS', 'ARRIVING', 'STEP_SLACK', 'STIFF', 'UNRESOLVED', 'build']
+__all__ = ['ADVANCE_STEPS', 'ARRIVING', 'IMPACT_ACCELERATION', 'IMPACT_SHARE',
+           'RELEASE_HALVINGS', 'STEP_SLACK', 'STIFF', 'build']
 
 STEP_SLACK = 0.1     # η: a step along dq keeps this fraction of every shrinking gap
 ADVANCE_STEPS = 64  # conservative advancement steps of an edge or face pair at most
 ARRIVING = 0.1      # a pair beyond d̂ that the prediction takes this share of d̂ inside arrives
-UNRESOLVED = 0.5    # a pair moving this share of d̂ along its normal in a step, or stiffer than
-STIFF = 1000.0      # this many m_eff/dt²: an impact or a push-out that the step does not
-                    # resolve (docs/physics.md#impacts)
+STIFF = 1000.0      # a pair stiffer than this many m_eff/dt²: deep in the barrier, a push-out
+                    # that the step does not resolve (docs/physics.md#impacts)
+IMPACT_ACCELERATION = 100.0   # m/s²: a pair's normal acceleration within d̂ above it (10 g),
+IMPACT_SHARE = 0.1            # or its Δ² min(d, d̂) in a step above this share of d̂: an impact
+                              # (docs/physics.md#impacts)
+RELEASE_HALVINGS = 48   # bisections of an opening pair's damper release (d̂ / 2⁴⁸)
 # Warp passes a struct argument by value: a call the C++ compiler keeps out of line copies the
 # whole Model (and Scratch) each time. The contact stages a step calls whatever is near are
 # inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact)
@@ -44,7 +48,8 @@ def build(t) -> SimpleNamespace:
     pair_gap, gap_at, other_state = t.pair_gap, t.gap_at, t.other_state
     pair_weight, motion, reach = t.pair_weight, t.motion, t.reach
     keep = scalar(1.0 - STEP_SLACK)
-    arrival, unresolved, stiff = scalar(1.0 - ARRIVING), scalar(UNRESOLVED), scalar(STIFF)
+    arrival, stiff = scalar(1.0 - ARRIVING), scalar(STIFF)
+    impact_acceleration, impact_share = scalar(IMPACT_ACCELERATION), scalar(IMPACT_SHARE)
     bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
     infinity = scalar(float('inf'))
 
@@ -368,18 +373,36 @@ def build(t) -> SimpleNamespace:
                 mass = one / (one / mass + one / mass_o)
         return mass
 
+    @wp.func
+    def release(model: Model, d_n: scalar, damping: scalar, weight: scalar):
+        """s [m] in (d_n, d̂): the distance at which a pair opening from d_n, its damper
+        pulling c·dt (s − d_n) (``damping`` c·dt [kg]), pulls as hard as the barrier still
+        pushes, −``weight`` db/dd (``weight`` dt² w [s²]); beyond it the damper only cancels
+        the push (a contact never pulls). Bisection: the pull grows with s, the push falls."""
+        low = d_n
+        high = model.contact_d_hat
+        for i in range(RELEASE_HALVINGS):
+            middle = half * (low + high)
+            e, b1, b2 = barrier(model, middle)
+            if damping * (middle - d_n) + weight * b1 < zero:
+                low = middle
+            else:
+                high = middle
+        return half * (low + high)
+
     @wp.func(inline=INLINE)
     def lag_friction(model: Model, state: State, scratch: Scratch, env: int):
         """Gathers this step's near pairs (margins of twice each body's predicted ``motion``,
         at least d̂), then freezes for the step, per pair closer than d̂ at q_n, the normal
         force dt² λ into scratch.friction_normal (friction's weight: the barrier's
-        −dt² db/dd plus the last step's damping force c (min(d_{n−1}, d̂) − d_n)/dt while
-        the pair was approaching, at most as much again as the barrier's: friction sees the
-        load the damper carries while it settles, not an impact's spike) and the contact
-        damping c·dt = 2ζ √(b''(d_n) m_eff) dt into scratch.normal_damping (0 for the
-        others); an edge pair's mollifier weighs both. Returns how many pairs the step
-        cannot resolve: beyond d̂ at q_n and closer than (1 − ARRIVING) d̂ at the prediction
-        q̃ (an impact arrives), or stiffer than STIFF m_eff/dt² (deep in the barrier)."""
+        −dt² db/dd plus the last step's damping force c (min(d_{n−1}, d̂) − d_n)/dt, at most
+        as much again as the barrier's while the pair approached and never below 0 while it
+        opened: friction sees the load the damper carries, not an impact's spike), the
+        contact damping c·dt = 2ζ √(b''(d_n) m_eff) dt into scratch.normal_damping (0 for
+        the others) and its ``release`` into scratch.damping_release; an edge pair's
+        mollifier weighs them. Returns how many pairs the step cannot resolve: beyond d̂ at
+        q_n and closer than (1 − ARRIVING) d̂ at the prediction q̃ (an impact arrives), or
+        stiffer than STIFF m_eff/dt² (deep in the barrier)."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * motion(
@@ -413,11 +436,13 @@ def build(t) -> SimpleNamespace:
                 if model.contact_damping > zero:
                     damping = (two * model.contact_damping * wp.sqrt(stiffness * mass)
                                * model.dt)
+                    scratch.damping_release[env, p] = release(
+                        model, d, damping, model.dt * model.dt * weight)
                 if last_damping > zero:
                     d_prev, n_prev, r_prev, rr_prev, ro_prev, rro_prev = gap_at(
                         model, state.q_prev, env, p)
-                    force += wp.min(last_damping * wp.max(
-                        wp.min(d_prev, model.contact_d_hat) - d, zero), force)
+                    force += wp.clamp(last_damping * (wp.min(d_prev, model.contact_d_hat) - d),
+                                      -force, force)
             scratch.friction_normal[env, p] = force
             scratch.normal_damping[env, p] = damping
         retire(model, scratch, env, old, fresh)
@@ -465,61 +490,78 @@ def build(t) -> SimpleNamespace:
         return wp.min(d, model.contact_d_hat), n, rest, rest_o
 
     @wp.func
-    def normal_motion(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-                      p: int):
-        """(min(d(q), d̂) − min(d(q_n), d̂) [m]: how far pair p moved along its normal within
-        d̂ since the step's start (< 0 closing; its flight towards d̂ does not count); its
-        normal n and rest points x̄, ȳ at q)."""
-        d, n, rest, rest_o = clamped_gap(model, q, env, p)
-        d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
-        return d - d_n, n, rest, rest_o
-
-    @wp.func
-    def impact(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
-        """1 if a listed pair's ``normal_motion`` to q is more than UNRESOLVED d̂ either way:
-        an impact, a stop or a push-out faster than the step resolves (not a contact resting,
-        rolling or sliding), else 0."""
+    def impact(model: Model, state: State, scratch: Scratch, env: int):
+        """1 if a listed pair's normal speed within d̂ turned in the step to state.q:
+        |Δ² min(d, d̂)| over q_{n−1}, q_n, q above IMPACT_ACCELERATION dt² or IMPACT_SHARE d̂,
+        whichever is less (an impact, a stop or a push-out: BDF2's two-step history would
+        carry that turn on as a push; a contact resting, rolling or sliding keeps its speed),
+        else 0."""
+        limit = wp.min(impact_acceleration * model.dt * model.dt,
+                       impact_share * model.contact_d_hat)
         found = int(0)
         for k in range(listed(model, scratch, env)):
-            motion, n, rest, rest_o = normal_motion(model, q, scratch, env,
-                                                    listed_pair(model, scratch, env, k))
-            if wp.abs(motion) > unresolved * model.contact_d_hat:
+            p = listed_pair(model, scratch, env, k)
+            d, n, rest, rest_o = clamped_gap(model, state.q, env, p)
+            d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
+            d_p, n_p, rest_p, rest_op = clamped_gap(model, state.q_prev, env, p)
+            if wp.abs(d - two * d_n + d_p) > limit:
                 found = 1
         return found
 
     @wp.func
+    def damper(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int):
+        """(Ψ [J·s²], dΨ/dd [N·s²], d²Ψ/dd² [kg], n, x̄, ȳ) of pair p's contact damper at q,
+        d = min(d(q), d̂), a = d − min(d_n, d̂): ½ c dt a², a viscous force −c ḋ (ḋ ≈ a/dt)
+        against the contact's approach and its opening, until the opening pair passes its
+        ``release`` s; beyond s the damper pulls exactly as hard as the barrier pushes,
+        Ψ = ½ c dt (s − d_n)² + dt² w (b(s) − b(d)) (a contact is never pulled), and its
+        curvature cancels the barrier's (``add_contact``). Flat beyond d̂."""
+        c = scratch.normal_damping[env, p]
+        d, n, rest, rest_o = clamped_gap(model, q, env, p)
+        d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
+        s = scratch.damping_release[env, p]
+        energy = half * c * (d - d_n) * (d - d_n)
+        gradient = c * (d - d_n)
+        curvature = c
+        if d > s:
+            body, other = pair_bodies(model, p)
+            weight = model.dt * model.dt * pair_weight(
+                model, scratch.q_n[env, body], other_state(scratch.q_n, env, body, other), p)
+            e_s, b1_s, b2_s = barrier(model, s)
+            e, b1, b2 = barrier(model, d)
+            energy = half * c * (s - d_n) * (s - d_n) + weight * (e_s - e)
+            gradient = -weight * b1
+            curvature = -weight * wp.max(b2, zero)
+        return energy, gradient, curvature, n, rest, rest_o
+
+    @wp.func
     def damping_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
                        env: int):
-        """Σ ½ c dt a² over the pairs with lagged damping [J·s²], a = min(``normal_motion``,
-        0): a viscous force −c ḋ against each contact's approach within d̂ (ḋ ≈ a/dt < 0),
-        none while it separates (a damper that pulled would hold a lifting foot down)."""
+        """Σ Ψ over the pairs with lagged damping [J·s²] (``damper``)."""
         energy = zero
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            weight = scratch.normal_damping[env, p]
-            if weight > zero:
-                motion, n, rest, rest_o = normal_motion(model, q, scratch, env, p)
-                closed = wp.min(motion, zero)
-                energy += half * weight * closed * closed
+            if scratch.normal_damping[env, p] > zero:
+                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, p)
+                energy += psi
         return energy
 
     @wp.func
     def add_damping(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                     hessian: int):
-        """Contact damping's gradient c dt a w into scratch.rhs (a = ``normal_motion`` < 0:
-        while the pair approaches) and c dt w wᵀ (curvature left out, as for the barrier)."""
+        """Contact damping's gradient dΨ/dd w into scratch.rhs and d²Ψ/dd² w wᵀ (``damper``;
+        the distance's curvature left out, as for the barrier: with the barrier's, never
+        negative)."""
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            weight = scratch.normal_damping[env, p]
-            if weight > zero:
-                closed, n, rest, rest_o = normal_motion(model, q, scratch, env, p)
-                if closed < zero:
-                    body, other = pair_bodies(model, p)
-                    w = jacobian_transpose(rest, n)
-                    w_o = -jacobian_transpose(rest_o, n)
-                    push(scratch, env, body, other, weight * closed, w, w_o)
-                    if hessian != 0:
-                        stiffen(model, scratch, env, body, other, weight, w, w_o)
+            if scratch.normal_damping[env, p] > zero:
+                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, p)
+                body, other = pair_bodies(model, p)
+                w = jacobian_transpose(rest, n)
+                w_o = -jacobian_transpose(rest_o, n)
+                push(scratch, env, body, other, dpsi, w, w_o)
+                if hessian != 0:
+                    stiffen(model, scratch, env, body, other, ddpsi, w, w_o)
 
     @wp.func
     def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int,
@@ -764,4 +806,7 @@ def build(t) -> SimpleNamespace:
                            add_friction=add_friction, damping_energy=damping_energy,
                            add_damping=add_damping,
                            contact_energy=contact_energy, add_contact=add_contact,
-                           step_bound=step_bound, touching=touching, impact=impact)
+                           step_bound=step_bound, touching=touching, impact=impact,
+                           listed=listed, listed_pair=listed_pair, clamped_gap=clamped_gap,
+                           pair_friction=pair_friction, pair_tangent=pair_tangent, slip=slip,
+                           smooth_friction=smooth_friction)

@@ -272,7 +272,9 @@ class _Fixed:
                     surface_vertex_end=np.array(self.vertex_ends, dtype=np.int32))
 
 
-_STARTS = 'a scene with contact must start with nothing touching'
+_STARTS = ('a scene with contact must start with nothing touching (move it clear; a URDF '
+           "robot: raise its root link with the scene file's base: {xyz: [x, y, z]} or "
+           '`affine-joint-sim run --base X Y Z`)')
 
 
 def refuse_touching(scene, q, arrays, names, body: int | None = None, verb: str = 'starts',

@@ -8,14 +8,21 @@ energy b(d) of every pair closer than d̂ this is the energy that implicit BDF s
 (docs/physics.md#mechanical-energy). NumPy, host side, world frame, SI units.
 """
 
+import math
+
 import numpy as np
 
 from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, pair_weight
-from affine_joint_sim.physics.contact_report import barrier_energy
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.model import HostModel, residual_jacobians
 
-__all__ = ['mechanical_energy']
+__all__ = ['barrier_energy', 'mechanical_energy']
+
+
+def barrier_energy(d: float, d_hat: float, kappa: float) -> float:
+    """b [J] of the barrier b(D) = −κ (D − D̂)² ln(D/D̂), D = d², at 0 < d < d̂."""
+    big, big_hat = d * d, d_hat * d_hat
+    return -kappa * (big - big_hat) ** 2 * math.log(big / big_hat)
 
 
 def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,

@@ -220,6 +220,8 @@ FIELDS = _fields('model', [
      'pair at the start of the step (0: no friction this step)'),
     ('normal_damping', 'scalar', ('env', 'pair'), 'kg', 'lagged c·dt of each pair: its damping '
      'c = 2ζ √(k m) [N·s/m] at the start of the step (0: none this step)'),
+    ('damping_release', 'scalar', ('env', 'pair'), 'm', 'the distance beyond which an opening '
+     'pair\'s damper only cancels its barrier\'s push (where normal_damping > 0)'),
     ('near_pairs', 'int32', ('env', 'near'), '-', 'the pairs evaluated this step, the static '
      'ones first and ascending: those within d̂ + body_margin at q_n (both bodies\' margins '
      'for a pair of bodies; the others stay beyond d̂); room for two lists, the last step\'s '

@@ -1,23 +1,27 @@
-"""Rigid poses of frames on affine bodies, for viewers: one kernel, one thread per frame.
+"""Rigid poses of frames on affine bodies, for viewers and ``Stepper.link_transforms``: one
+kernel, one thread per frame.
 
-Frame i sits on body ``body[i]`` with rotation ``rotation[i]`` and offset ``offset[i]`` in the
-body's rest frame; its pose is in the world, or, where ``parent[i]`` ≥ 0, in the frame at
-``parent_rotation[i]``, ``parent_offset[i]`` on body ``parent[i]`` (/tf's parent link). Its
-world pose uses the rotation R nearest to the body's A (the polar decomposition's, R = U Vᵀ of
-A = U Σ Vᵀ; for the nearly rigid A of a running simulation three Newton–Schulz steps R ← R (3 −
-RᵀR) / 2 reach it to rounding at a fraction of an SVD's cost, an SVD is taken when ‖AᵀA − I‖_F
-≥ 0.1): position p + R·offset, orientation R·rotation as a unit quaternion (x, y, z, w) with w
-≥ 0 (relative to a parent frame F: Fᵀ(p − p_F), Fᵀ R·rotation).
-Built per precision, in a Warp module of its own (only scenes that are viewed compile it).
+Frame i sits on body ``body[i]`` of environment ``env[i]`` with rotation ``rotation[i]`` and
+offset ``offset[i]`` in the body's rest frame; its pose is in the world, or, where
+``parent[i]`` ≥ 0, in the frame at ``parent_rotation[i]``, ``parent_offset[i]`` on body
+``parent[i]`` (/tf's parent link). Its world pose uses the rotation R nearest to the body's A
+(the polar decomposition's, R = U Vᵀ of A = U Σ Vᵀ; for the nearly rigid A of a running
+simulation three Newton–Schulz steps R ← R (3 − RᵀR) / 2 reach it to rounding at a fraction of
+an SVD's cost, an SVD is taken when ‖AᵀA − I‖_F ≥ 0.1): position p + R·offset, orientation
+R·rotation as a unit quaternion (x, y, z, w) with w ≥ 0 and as a rotation matrix (row-major)
+after it (relative to a parent frame F: Fᵀ(p − p_F), Fᵀ R·rotation).
+Built per precision, in a Warp module of its own (only scenes that are viewed or whose links
+are read compile it).
 """
 
 from types import SimpleNamespace
 
 import warp as wp
 
-__all__ = ['build', 'POSE_COLUMNS']
+__all__ = ['build', 'FRAME_COLUMNS', 'POSE_COLUMNS']
 
 POSE_COLUMNS = 7            # x y z, qx qy qz qw
+FRAME_COLUMNS = 16          # and the rotation's r00 r01 r02 r10 ... r22
 
 
 def build(t) -> SimpleNamespace:
@@ -79,16 +83,17 @@ def build(t) -> SimpleNamespace:
         return vec3(state[0], state[1], state[2]), r
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
-    def frame_poses(q: wp.array2d(dtype=vec12), env: int, body: wp.array(dtype=int),
+    def frame_poses(q: wp.array2d(dtype=vec12), env: wp.array(dtype=int),
+                    body: wp.array(dtype=int),
                     rotation: wp.array(dtype=mat33), offset: wp.array(dtype=vec3),
                     parent: wp.array(dtype=int), parent_rotation: wp.array(dtype=mat33),
                     parent_offset: wp.array(dtype=vec3), out: wp.array2d(dtype=wp.float64)):
         i = wp.tid()
-        c, r = rigid(q[env, body[i]])
+        c, r = rigid(q[env[i], body[i]])
         p = c + r * offset[i]
         turn = r * rotation[i]
         if parent[i] >= 0:          # relative to a frame on another (or the same) body
-            c_up, r_up = rigid(q[env, parent[i]])
+            c_up, r_up = rigid(q[env[i], parent[i]])
             up = r_up * parent_rotation[i]
             p = wp.transpose(up) * (p - c_up - r_up * parent_offset[i])
             turn = wp.transpose(up) * turn
@@ -100,5 +105,8 @@ def build(t) -> SimpleNamespace:
         out[i, 4] = wp.float64(y)
         out[i, 5] = wp.float64(z)
         out[i, 6] = wp.float64(w)
+        for row in range(3):
+            for column in range(3):
+                out[i, 7 + 3 * row + column] = wp.float64(turn[row, column])
 
     return SimpleNamespace(frame_poses=frame_poses)

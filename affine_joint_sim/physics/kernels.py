@@ -17,17 +17,18 @@ import warp as wp
 from affine_joint_sim.physics import (affine, assemble, commands, commit, contact,
                                       contact_geometry, coupled_solve, frames, joint_terms,
                                       joints, kernel_math, newton, ortho, potential, prediction,
-                                      step, tree_solve)
+                                      report, step, tree_solve)
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.precision import types_for
 
-__all__ = ['step_kernels', 'scalar_of', 'frame_kernel']
+__all__ = ['step_kernels', 'scalar_of', 'frame_kernel', 'report_kernel']
 
 _STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands,
            contact_geometry, contact, coupled_solve, potential, assemble, prediction, newton,
            commit, step)
 _BUILT = {}
 _FRAMES = {}
+_REPORTS = {}
 
 
 def step_kernels(scalar, bodies: bool = False) -> SimpleNamespace:
@@ -56,3 +57,12 @@ def frame_kernel(scalar):
     if scalar not in _FRAMES:
         _FRAMES[scalar] = frames.build(step_kernels(scalar)).frame_poses
     return _FRAMES[scalar]
+
+
+def report_kernel(scalar, bodies: bool = False):
+    """The contact report kernel of ``physics.report`` for ``scalar`` and the pipeline with
+    or without pairs of bodies (built on first use)."""
+    key = (scalar, bool(bodies))
+    if key not in _REPORTS:
+        _REPORTS[key] = report.build(step_kernels(scalar, bodies)).contact_report
+    return _REPORTS[key]

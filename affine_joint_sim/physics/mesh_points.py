@@ -7,15 +7,17 @@ extreme vertices along the 26 directions of a cube's faces, edges and corners (t
 half-space with that normal touches first; a box's corners, a sphere's poles), then farthest-
 point sampling (each next vertex the one farthest from every vertex kept so far), so the rest
 are spread evenly. The warning names the body and says how far a dropped vertex may be from a
-kept one. Exact IEEE operations only (no BLAS sums), so the points are the same bits on every
-machine.
+kept one; it is an item of the model build's summary (``sim_warnings.summarised``), where a mesh
+whose vertices and surface triangles are both reduced counts once. Exact IEEE operations only
+(no BLAS sums), so the points are the same bits on every machine.
 """
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 
-from affine_joint_sim.meshes import decimated
+from affine_joint_sim.meshes import decimated, read_mesh
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
 
@@ -24,6 +26,7 @@ __all__ = ['MAX_MESH_POINTS', 'MAX_STATIC_TRIANGLES', 'mesh_points', 'mesh_trian
 
 MAX_MESH_POINTS = 64
 MAX_STATIC_TRIANGLES = 256   # a fixed body's mesh: every contact point is tested against each
+REDUCED = 'collision meshes reduced for contact'     # the summary's kind of both reductions
 _DIRECTIONS = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
                if (i, j, k) != (0, 0, 0)]
 
@@ -31,16 +34,15 @@ _DIRECTIONS = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0
 def mesh_points(path: str, scale, where: str) -> np.ndarray:
     """The contact points (n, 3) [m, in the geometry's frame] of the mesh file at ``path``
     scaled per axis by ``scale``; SceneError naming ``where`` if it cannot be read."""
-    vertices, _ = _load(path, scale, where)
+    vertices, _ = read_mesh(path, scale, where)
     points = np.unique(vertices, axis=0)
     if len(points) <= MAX_MESH_POINTS:
         return points
     kept, gap = reduce_points(points, MAX_MESH_POINTS)
-    warnings.warn(f'{where}: collision mesh {path} has {len(points)} distinct vertices; '
-                  f'contact uses {MAX_MESH_POINTS} of them (its extremes along 26 directions, '
-                  f'then farthest-point sampling; every vertex dropped is within {gap:.3g} m of '
-                  'one kept)',
-                  SimulationWarning, stacklevel=4)
+    _reduced(f'{where}: collision mesh {path} has {len(points)} distinct vertices; contact uses '
+             f'{MAX_MESH_POINTS} of them (its extremes along 26 directions, then farthest-point '
+             f'sampling; every vertex dropped is within {gap:.3g} m of one kept)',
+             path, where, len(points), MAX_MESH_POINTS, 'vertices')
     return kept
 
 
@@ -48,12 +50,12 @@ def mesh_triangles(path: str, scale, where: str, most: int = MAX_STATIC_TRIANGLE
     """The triangles (n, 3, 3) [m, in the geometry's frame] of the mesh file at ``path``
     scaled per axis by ``scale``, at most ``most`` (more: vertex clustering, with a warning),
     degenerate ones dropped; SceneError naming ``where`` if it has none."""
-    vertices, faces = _load(path, scale, where)
+    vertices, faces = read_mesh(path, scale, where)
     triangles = vertices[faces] if len(faces) <= most else decimated(vertices, faces, most)
     if len(faces) > most:
-        warnings.warn(f'{where}: collision mesh {path} has {len(faces)} triangles; contact '
-                      f'uses {len(triangles)} (vertex clustering: the outline stays, small '
-                      'detail goes)', SimulationWarning, stacklevel=4)
+        _reduced(f'{where}: collision mesh {path} has {len(faces)} triangles; contact uses '
+                 f'{len(triangles)} (vertex clustering: the outline stays, small detail goes)',
+                 path, where, len(faces), len(triangles), 'triangles')
     area = np.linalg.norm(np.cross(triangles[:, 1] - triangles[:, 0],
                                    triangles[:, 2] - triangles[:, 0]), axis=1)
     triangles = triangles[area > 1e-12 * max(float(area.max(initial=0.0)), 1e-300)]
@@ -63,21 +65,12 @@ def mesh_triangles(path: str, scale, where: str, most: int = MAX_STATIC_TRIANGLE
     return triangles
 
 
-def _load(path: str, scale, where: str) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices (n, 3) scaled [m], faces (k, 3)) of a mesh file; SceneError naming ``where``
-    if it cannot be read or has no finite vertices."""
-    import trimesh
-
-    try:
-        mesh = trimesh.load(path, force='mesh', process=False)
-        vertices = np.asarray(mesh.vertices, dtype=np.float64)
-        faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
-    except Exception as exc:     # trimesh raises many kinds for a bad or unknown file
-        raise SceneError(f'{where}: cannot read collision mesh {path} '
-                         f'({type(exc).__name__}: {exc})') from None
-    if vertices.ndim != 2 or len(vertices) == 0 or not np.isfinite(vertices).all():
-        raise SceneError(f'{where}: collision mesh {path} has no finite vertices')
-    return vertices * np.asarray(scale, dtype=np.float64), faces
+def _reduced(message: str, path: str, where: str, had: int, kept: int, what: str) -> None:
+    """The SimulationWarning of a mesh reduced for contact from ``had`` to ``kept`` ``what``
+    (vertices or triangles): one item per geometry, the worst the most reduced."""
+    warnings.warn(SimulationWarning(message, REDUCED, had / max(kept, 1),
+                                    f'{Path(path).name} {had} → {kept} {what}',
+                                    item=f'{where} {path}'), stacklevel=4)
 
 
 def reduce_points(points: np.ndarray, count: int) -> tuple[np.ndarray, float]:

@@ -47,7 +47,7 @@ def build(t) -> SimpleNamespace:
             model, state, control, scratch, env, kinetic_scale, bdf2)
         restart = unresolved
         if restart == 0 and model.has_contact != 0 and model.integrator == BDF2:
-            restart = impact(model, state.q, scratch, env)
+            restart = impact(model, state, scratch, env)
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if restart != 0:     # the next step is BDF1: BDF2 would carry an impact's turn on
             state.history_ready[env] = 0

@@ -4,15 +4,15 @@ On every ``joint_states`` message it answers with one command, the torques τ = 
 ω for the joints it has targets for, so against a ``lockstep`` node the closed loop is
 deterministic. The targets are fixed, or follow a control script's keyframes in the state's
 simulated time, each joint with the script's gains (``control_script``). It answers each state
-once: a copy of the state it has just answered (the node republishes a waiting state every 0.2
-s, and a busy process can find the original and a copy queued together) is skipped: the node
-counts a second answer once, but an unstamped one (an array) that arrives after the step would
-answer the node's next state. The command goes out on ``joint_commands`` (a JointState: names
-and efforts, stamped with the state it answers) or, as ros2_control's
-JointGroupEffortController does, on ``effort_commands`` (a Float64MultiArray: one effort per
-joint of ``joint_states``, 0 for joints without a target; the node's ``command_joints`` default
-has that order). Being PD (no gravity model, no integral term), it settles ``m g l sin θ* /
-kp`` short of a target held against gravity.
+once: a copy of the state it has just answered (the node publishes a waiting state again for a
+controller that joins, or after 2 s without answers, and a busy process can find the original
+and a copy queued together) is skipped: the node counts a second answer once, but an unstamped
+one (an array) that arrives after the step would answer the node's next state. The command
+goes out on ``joint_commands`` (a JointState: names and efforts, stamped with the state it
+answers) or, as ros2_control's JointGroupEffortController does, on ``effort_commands`` (a
+Float64MultiArray: one effort per joint of ``joint_states``, 0 for joints without a target; the
+node's ``command_joints`` default has that order). Being PD (no gravity model, no integral
+term), it settles ``m g l sin θ* / kp`` short of a target held against gravity.
 """
 
 import time
@@ -29,7 +29,7 @@ from affine_joint_sim.ros.topics import load_topics
 __all__ = ['PDController', 'main', 'DUPLICATE_WINDOW']
 
 # A state with the stamp just answered, received less than this long after the answer [s,
-# wall], is a copy of it. Shorter than the node's 0.2 s republish interval: a state still
+# wall], is a copy of it. Shorter than the node's 2 s republish interval: a state still
 # waiting after that (a lost answer, or the same stamp again after a reset) is answered.
 DUPLICATE_WINDOW = 0.1
 

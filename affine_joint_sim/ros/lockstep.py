@@ -14,9 +14,15 @@ controller answering twice never stands in for another whose answer is still on 
 answer from a source beyond ``publishers`` (more controllers than ``publishers``) also applies
 to that step and is counted as surplus.
 
-While it waits, the gate says when to publish the waiting state again (a controller that
-subscribed late with volatile QoS, or restarted, gets it) and when to log that it is waiting.
-ROS-free: the node feeds it stamps and wall-clock time.
+While it waits, the gate says when to publish the waiting state again and when to log that it
+is waiting. A copy goes out only to reach a controller that does not have the state: one that
+joined after it was published (a volatile subscriber, started late or restarted: both a
+``joint_states`` subscription and an answer-topic publisher matched since), or, failing all
+answers for ``republish_every``, one whose answer was lost (sent before its publisher matched
+the node). A controller that has the state never gets a copy that it could answer a second
+time: an unstamped second answer would count for the next state. A viewer subscribing alone
+(no answer publisher) gets none either. ROS-free: the node feeds it stamps, matched counts and
+wall-clock time.
 """
 
 import time
@@ -29,12 +35,13 @@ class LockstepGate:
 
     Args:
         publishers: answers a step waits for (one per controller in the loop, >= 1).
-        republish_every: wall seconds [s] between two publications of a waiting state.
+        republish_every: wall seconds [s] without all answers after which a waiting state is
+            published again when no controller joined (its answer may have been lost).
         report_every: wall seconds [s] between two "still waiting" reports.
         clock: wall clock in seconds (monotonic); injectable for tests.
     """
 
-    def __init__(self, publishers: int = 1, republish_every: float = 0.2,
+    def __init__(self, publishers: int = 1, republish_every: float = 2.0,
                  report_every: float = 2.0, clock=time.monotonic):
         self.publishers = publishers
         self.republish_every = republish_every
@@ -45,12 +52,17 @@ class LockstepGate:
         self.surplus = 0        # answers from sources beyond ``publishers``, since start
         self.repeats = 0        # second answers from one source to one state, since start
         self._sources = set()   # sources that answered the waiting state
+        self._matched = None    # matched counts when it was last published (None: unknown)
         self._since = self._published_at = self._reported_at = clock()
 
-    def expect(self, stamp_ns: int) -> None:
-        """A state stamped ``stamp_ns`` was published: count answers to it from now on."""
+    def expect(self, stamp_ns: int, matched: tuple[int, int] | None = None) -> None:
+        """A state stamped ``stamp_ns`` was published: count answers to it from now on.
+        ``matched``: (subscriptions on the state topic, publishers on the answer topics)
+        matched as it went out; None when not known (then the first ``republish_due`` takes
+        its counts as the reference)."""
         self.stamp_ns = stamp_ns
         self._sources = set()
+        self._matched = matched
         self._since = self._published_at = self._reported_at = self.clock()
 
     def answer(self, stamp_ns: int, source) -> str:
@@ -80,13 +92,18 @@ class LockstepGate:
         """Whether the next step may be computed."""
         return self.answers >= self.publishers
 
-    def republish_due(self) -> bool:
-        """Whether the waiting state should be published again now (then it restarts the
-        interval)."""
+    def republish_due(self, matched: tuple[int, int]) -> bool:
+        """Whether the waiting state should be published again now, given the counts matched
+        now (as in ``expect``): a controller joined since it was last published (both counts
+        grew), or it has waited ``republish_every`` since. Then the interval restarts."""
+        before = matched if self._matched is None else self._matched
+        joined = all(now > then for now, then in zip(matched, before))
+        # one that leaves and comes back (a restarted controller) counts as joining
+        self._matched = tuple(map(min, matched, before))
         now = self.clock()
-        if self.released or now - self._published_at < self.republish_every:
+        if self.released or (not joined and now - self._published_at < self.republish_every):
             return False
-        self._published_at = now
+        self._matched, self._published_at = matched, now
         return True
 
     def report_due(self) -> float | None:

@@ -33,6 +33,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.resources import scene_path
+from affine_joint_sim.ros.collector import CollectorPauses, settle
 from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.lockstep import LockstepGate
@@ -142,6 +143,7 @@ class SimNode(Node):
         self.stop_requested = threading.Event()    # set by SIGINT/SIGTERM (see main)
         self._last_warning: dict[str, float] = {}
         self._bag_topics: list[BagTopic] = []      # every topic published or taken
+        self.collector = CollectorPauses()         # garbage collections while stepping
         self._make_interfaces()
         self.loop = SimLoop(self.sim, self.commands, self.pacer, self.gate)
         self.recording = RunRecording(self._open_bag(), self.get_logger().error,
@@ -485,7 +487,8 @@ class SimNode(Node):
         more and not recorded (it is in the bag already; its sensors are not published
         again)."""
         if not again:
-            self.gate.expect(self.loop.sim_time_ns)
+            self.gate.expect(self.loop.sim_time_ns, self._matched_counts()
+                             if self.config['mode'] == 'lockstep' else None)
         msg = self._joint_states.fill(self.sim, self.loop.sim_time_ns)
         if again:
             self.state_pub.publish(msg)
@@ -529,10 +532,17 @@ class SimNode(Node):
         with self._wake:
             self.grant.end(reason, future)
 
+    def _matched_counts(self) -> tuple[int, int]:
+        """(subscriptions matched on joint_states, publishers matched on the answer topics):
+        DDS's counts now (~3 µs)."""
+        return (self.state_pub.get_subscription_count(),
+                sum(sub.get_publisher_count() for sub in self._answer_subs.values()))
+
     def _keep_lockstep_alive(self):
-        """While lockstep waits: publish the waiting state again (for controllers that joined
-        late with volatile QoS or restarted) and say, now and then, who it waits on."""
-        if self.gate.republish_due():
+        """While lockstep waits: publish the waiting state again for a controller that does
+        not have it (``LockstepGate.republish_due``: joined late with volatile QoS, restarted,
+        or its answer lost) and say, now and then, who it waits on."""
+        if self.gate.republish_due(self._matched_counts()):
             self.publish_state(again=True)
         waited = self.gate.report_due()
         if waited is None:
@@ -572,8 +582,8 @@ class SimNode(Node):
         """Lockstep: warn (once per count) when the matched controllers are more than the gate
         waits for (which of them drives a step then depends on timing) or, once some are
         matched, fewer (each step then waits for answers that do not come: it goes on only
-        when a controller answers the state the node republishes every 0.2 s). ``publishers``:
-        ``_answer_publishers()`` if the caller has it already."""
+        when the node publishes the state again, ``republish_every`` without answers).
+        ``publishers``: ``_answer_publishers()`` if the caller has it already."""
         count, names, mismatched = publishers or self._answer_publishers()
         expected = self.gate.publishers
         if count == expected or count == self._warned_publishers or (count == 0 and expected):
@@ -590,8 +600,8 @@ class SimNode(Node):
             self.get_logger().warning(
                 f'lockstep: lockstep_publishers is {expected} but {count} publisher(s) are '
                 f'matched on {topics} (nodes: {names}){mismatched}: each step waits for answers '
-                'that may not come and crawls at the 0.2 s republish; set lockstep_publishers '
-                'to the number of controllers')
+                f'that may not come and crawls at the {self.gate.republish_every:g} s republish; '
+                'set lockstep_publishers to the number of controllers')
 
     def _check_rate(self):
         now = time.monotonic()
@@ -626,8 +636,12 @@ class SimNode(Node):
 
         spinner = threading.Thread(target=spin, name='ros_callbacks', daemon=True)
         self._stepping_thread = threading.current_thread()
+        # before the first state (it takes ~0.1 s): a full collection walks the set-up's
+        # objects no more
+        settle()
         with self._wake:
             self.reset()
+        self.collector.install()
         self._window_start = time.monotonic()
         spinner.start()
         yielded = time.monotonic()
@@ -651,6 +665,7 @@ class SimNode(Node):
                     time.sleep(0)
                     yielded = now
         finally:
+            self.collector.remove()
             with self._wake:
                 self._serve_requests(stopping=True)
                 waiting = self.grant.active
@@ -668,7 +683,8 @@ class SimNode(Node):
     def summary(self) -> dict:
         """Figures of the whole run, resets included: steps, simulated and wall time, steps/s,
         real-time factor, commands, the steps that did not converge or were rejected, and with
-        contact the smallest distance seen and the most contacts at once."""
+        contact the smallest distance seen and the most contacts at once, and the garbage
+        collections while stepping (count, full ones, longest [s], objects frozen)."""
         wall = self._last_step_wall - self._started
         steps, sim_time = self._run_steps, self._run_steps * self.sim.scene.dt
         return {'steps': steps, 'sim_time': sim_time, 'wall_time': wall,
@@ -685,4 +701,5 @@ class SimNode(Node):
                 'bag': self.config['record'] or None,
                 'rotation_strain': float(self.sim.stats['rotation_strain']),
                 'contact': self.sim.contact_record,
-                'recording_stopped': self.recording.stopped}
+                'recording_stopped': self.recording.stopped,
+                'garbage_collection': self.collector.summary()}

@@ -94,6 +94,10 @@ def print_summary(summary: dict) -> None:
                                      if rejected >= summary['steps'] > 0 else ''))
     print(f'largest ‖AAᵀ − I‖ of a moving body at the end: {summary["rotation_strain"]:.2g} '
           '(stats rotation_strain; viewers draw the nearest rotation)')
+    collected = summary['garbage_collection']
+    print(f'garbage collections while stepping: {collected["collections"]} '
+          f'({collected["full"]} full), longest {collected["longest"] * 1e3:.2f} ms; '
+          f'{collected["frozen"]:,} set-up objects frozen out of them')
     contact = summary.get('contact')
     if contact is not None:
         print(f'contact: smallest distance to the world {contact["min_distance"]:.3g} m, at '

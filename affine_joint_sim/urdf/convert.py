@@ -24,6 +24,7 @@ What becomes what:
 
 import math
 import warnings
+from pathlib import Path
 from typing import Annotated
 
 import numpy as np
@@ -36,7 +37,7 @@ from affine_joint_sim.rotations import (axis_rotation, pose_matrix, quaternion_f
                                         rpy_from_matrix)
 from affine_joint_sim.scene import (Body, Number, SceneError, SceneName, SceneSettings,
                                     Sensor, validation_report)
-from affine_joint_sim.sim_warnings import SimulationWarning
+from affine_joint_sim.sim_warnings import SimulationWarning, summarised
 from affine_joint_sim.urdf.inertia import (LinkInertia, combine, physical_moments,
                                            principal_frame)
 from affine_joint_sim.urdf.packages import resolve_uri
@@ -80,19 +81,22 @@ class UrdfOptions(SceneSettings):
 def urdf_scene_data(path, overrides: dict, source: str) -> tuple[dict, str]:
     """The scene dict (for ``Scene.from_dict``) of the URDF at ``path`` with ``overrides``
     (``UrdfOptions``), and the URDF text. SceneError naming ``source`` on bad input, a
-    SimulationWarning for each URDF feature simulated differently from what it says."""
+    SimulationWarning summing up the URDF features simulated differently from what it says
+    (``sim_warnings.summarised``: one SimulationDetail each)."""
     try:
         options = UrdfOptions.model_validate(overrides)
     except ValidationError as exc:
         raise SceneError(validation_report(source, exc, UrdfOptions)) from None
-    text, robot, collisions, notes = read_urdf(path)
-    for note in notes:
-        _warn(note)
-    return _Converter(robot, options, path, collisions).scene_dict(), text
+    with summarised(Path(path).name):
+        text, robot, collisions, notes = read_urdf(path)
+        for note in notes:
+            _warn(note, 'visuals not drawn (geometry not readable)')
+        return _Converter(robot, options, path, collisions).scene_dict(), text
 
 
-def _warn(message: str) -> None:
-    warnings.warn(message, SimulationWarning, stacklevel=4)
+def _warn(message: str, kind: str = '', size: float = 0.0, worst: str = '') -> None:
+    """A SimulationWarning; with a ``kind``, an item of the load's summary."""
+    warnings.warn(SimulationWarning(message, kind, size, worst), stacklevel=4)
 
 
 class _Converter:
@@ -123,7 +127,8 @@ class _Converter:
             import yourdfpy
             self.robot.links.append(yourdfpy.Link(name='world'))
             _warn(f"{self.path}: link 'world' is not defined but a joint's parent: taken as "
-                  'the world (a massless root link)')
+                  'the world (a massless root link)', "undefined links 'world' taken as the "
+                  'world')
 
     def _check_masses(self) -> None:
         """Masses are not negative (read.py checked that every number is finite)."""
@@ -203,7 +208,9 @@ class _Converter:
             _warn(f'{self.path}: joint {joint.name!r} starts at its '
                   f'{"lower" if start == bounds[0] else "upper"} limit {start:g} {unit}: its '
                   f'zero position is outside its limits [{bounds[0]:g}, {bounds[1]:g}] (choose '
-                  'another start with initial_positions)')
+                  'another start with initial_positions)',
+                  'joints starting at a limit (zero outside their limits)', abs(start),
+                  f'{joint.name!r} {start:g} {unit}')
         else:
             start = 0.0
         self._starts[joint.name] = start
@@ -273,7 +280,7 @@ class _Converter:
         else:
             if inertia.mass < self.options.min_mass:
                 _warn(f'{self.path}: link {name!r} weighs {inertia.mass:g} kg: given min_mass '
-                      f'{self.options.min_mass:g} kg')
+                      f'{self.options.min_mass:g} kg', 'links given min_mass')
                 inertia = LinkInertia(self.options.min_mass, inertia.com, inertia.inertia)
             if inertia.mass <= 0.0:
                 if name == self.root:
@@ -291,7 +298,7 @@ class _Converter:
             except ValueError as exc:
                 self._fail(f'link {name!r}: {exc}')
             if change:
-                _warn(f'{self.path}: link {name!r}: {change}')
+                _warn(f'{self.path}: link {name!r}: {change}', 'inertias raised to be physical')
             pose[:3, :3], pose[:3, 3] = axes, inertia.com
             body = {'name': name, 'mass': inertia.mass, 'inertia': [float(m) for m in moments],
                     'position': _list(inertia.com),
@@ -317,7 +324,7 @@ class _Converter:
                        'prismatic and revolute joints')
         if kind == 'floating':
             _warn(f'{self.path}: joint {joint.name!r} is floating: link {joint.child!r} moves '
-                  'freely (no joint)')
+                  'freely (no joint)', 'floating joints (their child moves freely)')
             return None
         self._say_unmodelled(joint)
         out = {'name': joint.name, 'type': 'revolute' if kind == 'continuous' else kind,
@@ -341,7 +348,7 @@ class _Converter:
             else:
                 _warn(f'{self.path}: joint {joint.name!r}: <limit effort="{limit.effort:g}"> '
                       'read as no effort limit (an effort limit of 0 would leave the joint '
-                      'unactuated)')
+                      'unactuated)', 'joints with <limit effort="0"> (no effort limit)')
         damping = self._dynamics(joint, 'damping')
         if damping:
             out['damping'] = damping
@@ -376,7 +383,8 @@ class _Converter:
                   'the URDF spec makes a missing bound 0, so it '
                   + ('cannot move' if not (lower or upper) else 'moves on one side of 0 only')
                   + '; give lower and upper, make it continuous, or override the limit '
-                  f'away (joints: {{{joint.name}: {{limit: null}}}})')
+                  f'away (joints: {{{joint.name}: {{limit: null}}}})',
+                  'joints without <limit lower upper> (held at 0)')
         lower, upper = float(lower or 0.0), float(upper or 0.0)
         if lower > upper:
             self._fail(f'joint {joint.name!r}: <limit lower="{lower:g}"> is above '
@@ -385,7 +393,7 @@ class _Converter:
                                            getattr(limit, 'upper', None)):
             _warn(f'{self.path}: joint {joint.name!r} ({joint.type}) has lower = upper = '
                   f'{lower:g}: its limit locks it there; free it with joints: {{{joint.name}: '
-                  '{limit: null}}, or make it continuous')
+                  '{limit: null}}, or make it continuous', 'joints locked by lower = upper')
         return {'lower': lower, 'upper': upper}
 
     def _say_unmodelled(self, joint) -> None:
@@ -394,11 +402,13 @@ class _Converter:
                        ' (no joint of that name exists)')
             _warn(f'{self.path}: joint {joint.name!r} mimics {joint.mimic.joint!r}{missing}: '
                   'mimic is not modelled, the joint moves on its own (command it like the '
-                  'other)')
+                  'other)', 'mimic joints not modelled (they move on their own)')
         friction = self._dynamics(joint, 'friction')
         if friction:
             _warn(f'{self.path}: joint {joint.name!r}: <dynamics friction="{friction:g}"> is '
-                  'not modelled (no Coulomb friction); its damping is')
+                  'not modelled (no Coulomb friction); its damping is',
+                  'joints whose <dynamics friction> is not modelled', friction,
+                  f'{joint.name!r} {friction:g} {"N" if joint.type == "prismatic" else "N·m"}')
 
     # ---- the scene -----------------------------------------------------------------------
 
@@ -430,7 +440,8 @@ class _Converter:
         options = self.options
         visuals = link_visuals(self.robot, self.local, self.body_of, options.package_paths,
                                self.path.parent, {b['name']: _size(b) for b in bodies},
-                               lambda message: _warn(f'{self.path}: {message}'))
+                               lambda message: _warn(f'{self.path}: {message}',
+                                                     'visual meshes not found (drawn as boxes)'))
         visuals += [{'body': o['name'], 'geometry': o['shape']} for o in objects if 'shape' in o]
         settings = options.model_dump(include={*SceneSettings.model_fields, 'contact',
                                                'ground', 'sensors'}, exclude_none=True)

@@ -3,6 +3,8 @@
 Imported by test modules as ``helpers.ros_client`` (pytest puts test/ on the path).
 """
 
+import copy
+
 from affine_joint_sim.ros.topics import load_topics
 
 TOPICS = load_topics()
@@ -14,13 +16,16 @@ def stamp_ns(msg) -> int:
 
 
 class Inbox:
-    """Every message received on one topic, in order."""
+    """Every message received on one topic, in order; ``depth``: the subscription's history
+    (default the topic's), deeper for a burst that a busy test process takes late."""
 
-    def __init__(self, node, topic_key, name=None):
+    def __init__(self, node, topic_key, name=None, depth=None):
         topic = TOPICS[topic_key]
+        qos = copy.copy(topic.qos)
+        qos.depth = depth or qos.depth
         self.messages = []
         self.sub = node.create_subscription(topic.msg_class, name or topic.name(),
-                                            self.messages.append, topic.qos)
+                                            self.messages.append, qos)
 
     @property
     def last(self):

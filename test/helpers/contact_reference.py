@@ -1,15 +1,16 @@
-"""The active contacts of a state, host side (``Stepper.contacts``, sensors, markers;
-README.md#contact).
+"""The contact report's reference: the active contacts of a state evaluated pair by pair in plain
+NumPy from the host model (``physics.pair_geometry``), independent of the kernel that
+``Stepper.contacts`` replays (``physics.report``).
 
 A pair is active when its distance is below d̂, or when friction was lagged for it at the
 step's start (it acts until the step ends). Its normal force is the barrier's push −db/dd
-[N] at the state's distance, plus the contact damping's c max(min(d_n, d̂) − d, 0)/dt against
-its approach within d̂, c frozen at the step's start (``scratch.normal_damping`` / dt); its
-friction force the lagged smoothed Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against
-the slip u since the step's start, λ the normal force frozen at that start
-(``scratch.friction_normal`` / dt²). These are the forces the step balanced, as
-``physics.contact`` computes them, evaluated once more in plain NumPy (the last bits may differ
-from the kernel's, and between machines).
+[N] at the state's distance, plus the contact damping's −c (d − min(d_n, d̂))/dt against its
+approach or opening within d̂ (the sum never below 0: a damper never pulls), c frozen at the
+step's start (``scratch.normal_damping`` / dt); its friction force the lagged smoothed
+Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against the slip u since the step's
+start, λ the normal force frozen at that start (``scratch.friction_normal`` / dt²). These are
+the forces the step balanced, as ``physics.contact`` computes them, evaluated once more in
+plain NumPy (the last bits may differ from the kernel's, and between machines).
 """
 
 import math
@@ -19,13 +20,7 @@ import numpy as np
 from affine_joint_sim.physics.contact_model import tangent
 from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, pair_weight
 
-__all__ = ['barrier_energy', 'barrier_force', 'active_contacts']
-
-
-def barrier_energy(d: float, d_hat: float, kappa: float) -> float:
-    """b [J] of the barrier b(D) = −κ (D − D̂)² ln(D/D̂), D = d², at 0 < d < d̂."""
-    big, big_hat = d * d, d_hat * d_hat
-    return -kappa * (big - big_hat) ** 2 * math.log(big / big_hat)
+__all__ = ['barrier_force', 'active_contacts']
 
 
 def barrier_force(d: float, d_hat: float, kappa: float) -> float:
@@ -65,7 +60,7 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
             d, host.contact_d_hat, host.contact_kappa) if d < host.contact_d_hat else 0.0
         if normal_damping[pair] > 0.0 and d < host.contact_d_hat:
             d_n = min(pair_gap(model, q_n, pair).distance, host.contact_d_hat)
-            push += normal_damping[pair] * max(d_n - d, 0.0) / dt2
+            push = max(push - normal_damping[pair] * (d - d_n) / dt2, 0.0)
         other = static_names[gap.static] if gap.other is None else body_names[gap.other]
         out.append({'body': body_names[gap.body], 'other': other,
                     'point': gap.point, 'normal': np.asarray(gap.normal),

@@ -1,0 +1,70 @@
+"""``Stepper.contacts`` (one replay of the report kernel over the pairs the last step listed)
+against the reference: every pair of the host model evaluated one by one in plain NumPy
+(``helpers.contact_reference``), in scenes with the ground, fixed shapes and bodies touching
+each other, resting, sliding and landing."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from affine_joint_sim import Scene, Stepper
+from helpers.contact_reference import active_contacts
+
+SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
+
+
+def _reference(sim, env=0):
+    scratch = sim._scratch
+    q = sim.body_q if sim.num_envs == 1 else sim.body_q[env]
+    return active_contacts(sim._host, q, scratch.q_n.numpy()[env],
+                           scratch.friction_normal.numpy()[env],
+                           scratch.normal_damping.numpy()[env], sim.body_names,
+                           sim._host.static_names)
+
+
+def _assert_same(contacts, reference):
+    assert [(c['body'], c['other']) for c in contacts] == \
+        [(c['body'], c['other']) for c in reference]
+    scale = max([1.0] + [c['normal_force'] for c in reference])
+    for ours, theirs in zip(contacts, reference):
+        assert ours['distance'] == pytest.approx(theirs['distance'], rel=1e-9, abs=1e-15)
+        np.testing.assert_allclose(ours['normal'], theirs['normal'], atol=1e-12)
+        np.testing.assert_allclose(ours['point'], theirs['point'], atol=1e-12)
+        assert ours['normal_force'] == pytest.approx(theirs['normal_force'], abs=1e-9 * scale)
+        np.testing.assert_allclose(ours['friction_force'], theirs['friction_force'],
+                                   atol=1e-9 * scale)
+
+
+@pytest.mark.parametrize('name, steps', [('quadruped', 150), ('stack', 120), ('ramp', 150),
+                                         ('pile', 60)])
+def test_the_reported_contacts_are_the_reference_pair_by_pair(name, steps):
+    sim = Stepper(Scene.load(SCENES / f'{name}.yaml'))
+    seen = 0
+    for k in range(steps):
+        sim.step()
+        if k % 10 == 9:         # through landing, sliding and resting
+            contacts = sim.contacts
+            _assert_same(contacts, _reference(sim))
+            seen += len(contacts)
+    assert seen > 0
+
+
+def test_each_environment_reports_its_own_contacts():
+    scene = Scene.load(SCENES / 'stack.yaml')
+    batch = Stepper(scene, num_envs=2)
+    for _ in range(60):
+        batch.step()
+    for env in range(2):
+        _assert_same(batch.contacts[env], _reference(batch, env))
+    assert batch.contacts[0] and len(batch.contacts) == 2
+
+
+def test_a_read_with_too_little_room_makes_more_and_reads_again():
+    sim = Stepper(Scene.load(SCENES / 'stack.yaml'))
+    for _ in range(60):
+        sim.step()
+    sim._report = sim._capture_report(1)        # room for one contact per environment
+    contacts = sim.contacts
+    assert len(contacts) > 1
+    _assert_same(contacts, _reference(sim))
