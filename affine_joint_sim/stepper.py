@@ -312,7 +312,7 @@ class Stepper:
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float,
                       self._scratch.friction_normal, self._scratch.normal_damping):
             array.zero_()
-        self._list_near(q0)
+        self._list_near(h.body_q0)
         x0 = np.ascontiguousarray(np.broadcast_to(h.joint_initial_position,
                                                   (n, h.joint_count)))
         for array in (self._state.joint_coordinate, self._state.joint_coordinate_prev,
@@ -332,16 +332,15 @@ class Stepper:
         self._steps = 0
 
     def _list_near(self, q: np.ndarray) -> None:
-        """Each environment's near list (``scratch.near_pairs``, as a step gathers it) for
-        states ``q`` (envs, n_bodies, 12): its pairs closer than d̂, so that ``contacts`` reads
-        a state no step has reached yet (the start, a reset, a placement)."""
+        """Every environment's near list (``scratch.near_pairs``, as a step gathers it) for
+        the one state ``q`` (n_bodies, 12) they all start from: its pairs closer than d̂, so
+        that ``contacts`` reads the start or a reset before any step."""
         if not self._host.has_contact:
             return
         pairs, count = self._scratch.near_pairs.numpy(), self._scratch.near_count.numpy()
-        for env in range(self._envs):
-            near = near_pairs(vars(self._host), q[env], self._host.contact_d_hat)
-            pairs[env, :len(near)] = near
-            count[env] = len(near)
+        near = near_pairs(vars(self._host), q, self._host.contact_d_hat)
+        pairs[:, :len(near)] = near
+        count[:] = len(near)
         self._store(self._scratch.near_pairs, pairs)
         self._store(self._scratch.near_count, count)
 

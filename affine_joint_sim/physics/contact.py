@@ -807,6 +807,6 @@ def build(t) -> SimpleNamespace:
                            add_damping=add_damping,
                            contact_energy=contact_energy, add_contact=add_contact,
                            step_bound=step_bound, touching=touching, impact=impact,
-                           listed=listed, listed_pair=listed_pair, clamped_gap=clamped_gap,
+                           listed=listed, listed_pair=listed_pair, damper=damper,
                            pair_friction=pair_friction, pair_tangent=pair_tangent, slip=slip,
                            smooth_friction=smooth_friction)

@@ -30,8 +30,8 @@ def build(t) -> SimpleNamespace:
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
     scalar, vec3, zero = t.scalar, t.vec3, t.zero
     listed, listed_pair, pair_bodies, gap_at = t.listed, t.listed_pair, t.pair_bodies, t.gap_at
-    barrier, pair_weight, other_state, clamped_gap = (t.barrier, t.pair_weight, t.other_state,
-                                                       t.clamped_gap)
+    barrier, pair_weight, other_state, damper = (t.barrier, t.pair_weight, t.other_state,
+                                                  t.damper)
     pair_friction, pair_tangent, slip, smooth_friction = (t.pair_friction, t.pair_tangent,
                                                           t.slip, t.smooth_friction)
     world_point = t.world_point
@@ -39,16 +39,17 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def normal_force(model: Model, state: State, scratch: Scratch, env: int, p: int,
                      d: scalar):
-        """The barrier's push plus the damper's force [N] of pair p at distance d < d̂."""
+        """The barrier's push plus the damper's force [N] of pair p at distance d < d̂: minus
+        their gradients along d (the step's own, ``contact.damper``) over dt², never below 0."""
         body, other = pair_bodies(model, p)
+        dt2 = model.dt * model.dt
         e, b1, b2 = barrier(model, d)
-        force = -pair_weight(model, scratch.q_n[env, body],
-                             other_state(scratch.q_n, env, body, other), p) * b1
-        c = scratch.normal_damping[env, p]
-        if c > zero:
-            d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
-            force = wp.max(force - c * (d - d_n) / (model.dt * model.dt), zero)
-        return force
+        force = -dt2 * pair_weight(model, scratch.q_n[env, body],
+                                   other_state(scratch.q_n, env, body, other), p) * b1
+        if scratch.normal_damping[env, p] > zero:
+            psi, dpsi, ddpsi, n, rest, rest_o = damper(model, state.q, scratch, env, p)
+            force -= dpsi
+        return wp.max(force / dt2, zero)
 
     @wp.func
     def friction_force(model: Model, state: State, scratch: Scratch, env: int, p: int):
