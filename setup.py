@@ -38,6 +38,7 @@ setup(
         'pydantic>=2',
         'yourdfpy>=0.0.56,<0.1',    # URDF robots (README.md#robots-from-urdf); meshes never loaded
         'trimesh',                  # collision meshes' vertices (README.md#contact); yourdfpy's too
+        'scipy',                    # Qhull: a moving mesh's convex hull (physics/mesh_hull.py)
         'matplotlib',               # `render` and the plots of `make bench`
     ],
     extras_require={

@@ -25,6 +25,8 @@ class Contact(StrictModel):
     ``eps_velocity`` [m/s]: the slip speed below which friction acts as a stiff viscous law;
     ``damping``: the ratio to critical of a viscous damping on each contact's approach speed
     (1: a bounce dies out at once, as MuJoCo's default; 0: the undamped IPC barrier);
+    ``mesh_tolerance`` [m]: how far a moving mesh may reach beyond the convex hull contact
+    gives it (its hull's corners are dropped only within it);
     ``self_collision``: bodies of one articulation touch each other (jointed pairs never);
     ``exclude``: pairs of body names that never touch each other (MuJoCo's ``<exclude>``; in
     a URDF scene link names, with the SRDF's ``<disable_collisions>`` added)."""
@@ -34,6 +36,7 @@ class Contact(StrictModel):
     friction: NonNegative = 0.5
     eps_velocity: PositiveFloat = 1.0e-3
     damping: NonNegative = 1.0
+    mesh_tolerance: PositiveFloat = 1.0e-3
     self_collision: bool = False
     exclude: list[tuple[str, str]] = []
 

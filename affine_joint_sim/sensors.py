@@ -18,19 +18,21 @@ times the frame's pose in the body. Readings are expressed in the sensor frame:
   friction_force at the contact point) and their moment. A sensor on a welded link reads every
   contact of the body it is welded into.
 
-The arithmetic is plain Python floats, per sensor and environment: NumPy would spend about a
-microsecond on each operation on a 3-vector (one IMU reads in about 30 µs on the shared 2-core
-CPU, each further one about 10 µs, per environment; a contact sensor costs what
-``Stepper.contacts`` does, computed once per state for all contact sensors and markers). Only
-+ − × ÷ and √ (no LAPACK, no BLAS, no reordered sums): an IMU's readings of a state are the
-same bits on every machine, like the state itself (README.md#reproducibility); a contact
-sensor sums the forces of ``Stepper.contacts`` as they come (the report kernel's, with the
-kernels' own log).
+The arithmetic is plain Python floats, per sensor and environment: one NumPy operation on a
+3-vector costs more than Python's whole product. NumPy only takes the states in (a basic index
+per body read: fancy indexing costs several times more) and gives the readings out (one array,
+a view per value). Each body's rotation is computed once per read for all its sensors, and the
+contacts are grouped by body once per read for all contact sensors (``Stepper.contacts`` itself
+is computed once per state for the contact sensors and markers; README.md#sensors has the
+costs). Only + − × ÷ and √ (no LAPACK, no BLAS, no reordered sums): an IMU's readings of a
+state are the same bits on every machine, like the state itself (README.md#reproducibility); a
+contact sensor sums the forces of ``Stepper.contacts`` as they come (the report kernel's, with
+the kernels' own log).
 """
 
 import math
-import operator
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
@@ -74,10 +76,6 @@ def _cross(a, b) -> tuple:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-def _transposed(a) -> tuple:
-    return (a[0], a[3], a[6], a[1], a[4], a[7], a[2], a[5], a[8])
-
-
 def _inverse_transposed(a) -> tuple:
     """A⁻ᵀ: the cofactor matrix (rows a1×a2, a2×a0, a0×a1 of A's rows a_i) over det A."""
     c0, c1, c2 = a[4] * a[8] - a[5] * a[7], a[5] * a[6] - a[3] * a[8], a[3] * a[7] - a[4] * a[6]
@@ -96,14 +94,41 @@ def polar_rotation(a) -> tuple:
     leaves an error of about δ²/2, so it stops after an update below 1e-8 (an affine body's A,
     a rotation up to a strain of 1e-6 to 1e-3, takes 2 or 3 iterations). 9 entries in row
     order."""
-    r = tuple(map(float, a))
+    return _polar(a)[0]
+
+
+def _polar(a) -> tuple[tuple, tuple]:
+    """(``polar_rotation(a)``, A⁻ᵀ): the iteration's first step computes A⁻ᵀ, which an IMU
+    needs too."""
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = r = tuple(map(float, a))
+    first = None
     for _ in range(_POLAR_ITERATIONS):
-        following = tuple([0.5 * (x + y) for x, y in zip(r, _inverse_transposed(r))])
-        change = max(map(abs, map(operator.sub, following, r)))
-        r = following
+        inverse = _inverse_transposed(r)
+        if first is None:
+            first = inverse
+        i0, i1, i2, i3, i4, i5, i6, i7, i8 = inverse
+        f0, f1, f2, f3, f4, f5, f6, f7, f8 = r = (
+            0.5 * (r0 + i0), 0.5 * (r1 + i1), 0.5 * (r2 + i2), 0.5 * (r3 + i3),
+            0.5 * (r4 + i4), 0.5 * (r5 + i5), 0.5 * (r6 + i6), 0.5 * (r7 + i7), 0.5 * (r8 + i8))
+        change = max(abs(f0 - r0), abs(f1 - r1), abs(f2 - r2), abs(f3 - r3), abs(f4 - r4),
+                     abs(f5 - r5), abs(f6 - r6), abs(f7 - r7), abs(f8 - r8))
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = r
         if not change > 1e-8:           # what is left is rounding (NaN stops too)
             break
-    return r
+    return r, first
+
+
+def _angular_velocity(a_dot, a_inverse_transposed) -> tuple:
+    """ω [rad/s, world] from [ω]× = the skew part (W − Wᵀ)/2 of W = Ȧ A⁻¹, whose entry W_ij
+    is row i of Ȧ times row j of A⁻ᵀ (only the six off the diagonal are computed)."""
+    d, t = a_dot, a_inverse_transposed
+    w01 = d[0] * t[3] + d[1] * t[4] + d[2] * t[5]
+    w02 = d[0] * t[6] + d[1] * t[7] + d[2] * t[8]
+    w10 = d[3] * t[0] + d[4] * t[1] + d[5] * t[2]
+    w12 = d[3] * t[6] + d[4] * t[7] + d[5] * t[8]
+    w20 = d[6] * t[0] + d[7] * t[1] + d[8] * t[2]
+    w21 = d[6] * t[3] + d[7] * t[4] + d[8] * t[5]
+    return (0.5 * (w21 - w12), 0.5 * (w02 - w20), 0.5 * (w10 - w01))
 
 
 def quaternion_xyzw(m) -> tuple:
@@ -129,6 +154,17 @@ def quaternion_xyzw(m) -> tuple:
     return (q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm)
 
 
+class _Mount(NamedTuple):
+    """Where one sensor reads, resolved once (``SensorSet``)."""
+
+    kind: str               # its type: 'imu' or 'contact'
+    state: int              # its body's place among the bodies whose states are read
+    velocity: int | None    # an IMU's body's place among those whose velocities are read
+    rotation: tuple         # its frame's axes in the body frame (3×3, row order)
+    offset: tuple           # its frame's origin in the body frame [m]
+    body_name: str          # its body's name (the contacts name it)
+
+
 class SensorSet:
     """The sensors of a scene, resolved once: each one's body, its frame's pose in that body,
     and its type. ``read`` computes every reading of every environment.
@@ -143,30 +179,44 @@ class SensorSet:
         self.frame_ids = [s.body for s in scene.sensors]
         frames = {f.name: f for f in scene.frames}
         bodies = {b.name: i for i, b in enumerate(scene.bodies)}
-        self.body = []          # each sensor's body index
-        self.rotation = []      # its frame's axes in the body frame (3×3, row order)
-        self.offset = []        # its frame's origin in the body frame [m]
-        for sensor in scene.sensors:
-            frame = frames.get(sensor.body)
-            if frame is None:
-                self.body.append(bodies[sensor.body])
-                rotation, offset = np.eye(3), (0.0, 0.0, 0.0)
-            else:
-                self.body.append(bodies[frame.body])
-                rotation, offset = rotation_matrix(frame.orientation), frame.position
-            self.rotation.append(tuple(np.asarray(rotation, dtype=np.float64).ravel().tolist()))
-            self.offset.append(tuple(float(x) for x in offset))
+        self.body = [bodies[frames[s.body].body if s.body in frames else s.body]
+                     for s in scene.sensors]        # each sensor's body index
         self.body_names = [scene.bodies[b].name for b in self.body]
         self.gravity = tuple(float(g) for g in scene.gravity)
         self.dt = float(scene.dt)
         self.imu = [k for k, t in enumerate(self.types) if t == 'imu']
         self.contact = [k for k, t in enumerate(self.types) if t == 'contact']
-        self._bodies = sorted(set(self.body))                       # the bodies read
+        self._bodies_read = sorted(set(self.body))                  # their states are read
         self._moving = sorted({self.body[k] for k in self.imu})     # their velocities too
-        self._body_index = np.array(self._bodies, dtype=np.intp)
-        self._moving_index = np.array(self._moving, dtype=np.intp)
+        self._mounts = [self._mount(k, frames.get(frame_id))
+                        for k, frame_id in enumerate(self.frame_ids)]
+        self._touched = sorted({self.body_names[k] for k in self.contact})
+        self._fields = self._field_slices()
         for k in self.contact:
             self._warn_if_untouchable(scene, k)
+
+    def _mount(self, k: int, frame) -> _Mount:
+        """Sensor k's ``_Mount``; ``frame``: the scene frame its ``body`` names, or None (it
+        names a body: the body's own frame)."""
+        rotation, offset = (np.eye(3), (0.0, 0.0, 0.0)) if frame is None else (
+            rotation_matrix(frame.orientation), frame.position)
+        body = self.body[k]
+        return _Mount(self.types[k], self._bodies_read.index(body),
+                      self._moving.index(body) if body in self._moving else None,
+                      tuple(np.asarray(rotation, dtype=np.float64).ravel().tolist()),
+                      tuple(float(x) for x in offset), self.body_names[k])
+
+    def _field_slices(self) -> list[tuple[str, list[tuple[str, slice]]]]:
+        """(name, [(value key, its columns in a row of every reading)]) per sensor: a row
+        holds the sensors' values one after the other, each in FIELDS order."""
+        fields, start = [], 0
+        for name, kind in zip(self.names, self.types):
+            columns = []
+            for key, size in FIELDS[kind].items():
+                columns.append((key, slice(start, start + size)))
+                start += size
+            fields.append((name, columns))
+        return fields
 
     def _warn_if_untouchable(self, scene, k: int) -> None:
         body = scene.bodies[self.body[k]]
@@ -185,7 +235,8 @@ class SensorSet:
 
     def read(self, q: np.ndarray, v: np.ndarray | None, v_prev: np.ndarray | None,
              at_start: bool, contacts: list | None) -> dict[str, dict[str, np.ndarray]]:
-        """Every sensor's readings, ``{name: {value: array (envs, size)}}`` (FIELDS).
+        """Every sensor's readings, ``{name: {value: array (envs, size)}}`` (FIELDS; the
+        arrays are views of one array of every value).
 
         Args:
             q: body states (envs, bodies, 12) [m, -].
@@ -195,50 +246,58 @@ class SensorSet:
             contacts: per environment, ``Stepper.contacts``'s list (needed by contact sensors
                 only; else None).
         """
-        envs = len(q)
-        rows = [[] for _ in self.names]     # per sensor, per environment: its values
-        bodies, moving = self._bodies, self._moving
-        # plain floats from here on
-        q = q[:, self._body_index].astype(np.float64).tolist()
-        if moving:
-            v = v[:, self._moving_index].astype(np.float64).tolist()
-            v_prev = v_prev[:, self._moving_index].astype(np.float64).tolist()
-        for e in range(envs):
-            states = dict(zip(bodies, q[e]))
-            poses = {b: polar_rotation(state[3:]) for b, state in states.items()}
-            # body -> its velocity now and one step before
-            moved = dict(zip(moving, zip(v[e], v_prev[e]))) if moving else {}
-            for k in range(len(self.names)):
-                b = self.body[k]
-                body_rotation = poses[b]
-                rotation = _matmul(body_rotation, self.rotation[k])   # the frame in the world
-                if self.types[k] == 'imu':
-                    rows[k].append(self._imu(k, states[b][3:], rotation, *moved[b], at_start))
-                else:
-                    p, r = states[b], _apply(body_rotation, self.offset[k])
-                    origin = (p[0] + r[0], p[1] + r[1], p[2] + r[2])
-                    rows[k].append(self._contact(k, rotation, origin, contacts[e]))
-        out = {}
-        for name, kind, values in zip(self.names, self.types, rows):
-            array = np.array(values, dtype=np.float64).reshape(envs, -1)
-            out[name], start = {}, 0
-            for key, size in FIELDS[kind].items():
-                out[name][key] = array[:, start:start + size]
-                start += size
-        return out
+        states = _per_env(q, self._bodies_read)       # plain floats from here on
+        if self.imu:
+            velocities = [list(zip(now, before)) for now, before in zip(
+                _per_env(v, self._moving), _per_env(v_prev, self._moving))]
+        rows = [self._row(states[e], velocities[e] if self.imu else None, at_start,
+                          self._touching(contacts[e]) if self.contact else None)
+                for e in range(len(states))]
+        values = np.array(rows, dtype=np.float64)
+        return {name: {key: values[:, columns] for key, columns in fields}
+                for name, fields in self._fields}
 
-    def _imu(self, k: int, a, rotation, v: list, v_prev: list, at_start: bool) -> tuple:
-        """One IMU's readings in FIELDS order, from the body's A, the frame's rotation in the
-        world, the body's velocity now and one step before."""
-        a_dot = v[3:]
-        # W = Ȧ A⁻¹ = Ȧ (A⁻ᵀ)ᵀ; ω from its skew part (W − Wᵀ)/2 = [ω]×
-        w = _matmul(a_dot, _transposed(_inverse_transposed(a)))
-        omega = (0.5 * (w[7] - w[5]), 0.5 * (w[2] - w[6]), 0.5 * (w[3] - w[1]))
+    def _row(self, states: list, velocities: list | None, at_start: bool,
+             touching: dict | None) -> list[float]:
+        """One environment's values of every sensor, one after the other, from the states of
+        the bodies read, the IMU bodies' (velocity now, one step before) and ``_touching``."""
+        poses = [_polar(state[3:]) for state in states]     # (R, A⁻ᵀ) of each body
+        row = []
+        for kind, slot, moving, frame_rotation, offset, body_name in self._mounts:
+            body_rotation, a_inverse_transposed = poses[slot]
+            rotation = _matmul(body_rotation, frame_rotation)   # the frame in the world
+            if kind == 'imu':
+                row += self._imu(a_inverse_transposed, rotation, offset, *velocities[moving],
+                                 at_start)
+            else:
+                p, r = states[slot], _apply(body_rotation, offset)
+                origin = (p[0] + r[0], p[1] + r[1], p[2] + r[2])
+                row += _wrench(rotation, origin, touching[body_name])
+        return row
+
+    def _touching(self, contacts: list) -> dict[str, list]:
+        """For each body a contact sensor is on (by name): its contacts among ``contacts`` (one
+        environment's ``Stepper.contacts``), in their order, each with the sign of its force
+        on that body (a contact of two moving bodies pushes the ``other`` one back: −1)."""
+        touching = {name: [] for name in self._touched}
+        for contact in contacts:
+            mine = touching.get(contact['body'])
+            if mine is not None:
+                mine.append((1.0, contact))
+            theirs = touching.get(contact['other'])
+            if theirs is not None:
+                theirs.append((-1.0, contact))
+        return touching
+
+    def _imu(self, a_inverse_transposed, rotation, offset, v: list, v_prev: list,
+             at_start: bool) -> tuple:
+        """One IMU's readings in FIELDS order, from its body's A⁻ᵀ, the frame's rotation in
+        the world and origin in the body [m], the body's velocity now and one step before."""
+        omega = _angular_velocity(v[3:], a_inverse_transposed)
         if at_start:
             accel = (0.0, 0.0, 0.0)
         else:       # the frame origin's velocity ṗ + Ȧ r̄, now and one step before
-            r = self.offset[k]
-            now, before = _apply(a_dot, r), _apply(v_prev[3:], r)
+            now, before = _apply(v[3:], offset), _apply(v_prev[3:], offset)
             dt = self.dt
             accel = (((v[0] + now[0]) - (v_prev[0] + before[0])) / dt,
                      ((v[1] + now[1]) - (v_prev[1] + before[1])) / dt,
@@ -248,25 +307,28 @@ class SensorSet:
         return (*quaternion_xyzw(rotation), *_apply_transposed(rotation, omega),
                 *_apply_transposed(rotation, specific))
 
-    def _contact(self, k: int, rotation, origin, contacts: list) -> tuple:
-        """One contact sensor's readings in FIELDS order, from its environment's active
-        contacts and its frame's pose (a contact of two moving bodies pushes the other one
-        back: −f at the same point)."""
-        force, torque = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
-        body = self.body_names[k]
-        for contact in contacts:
-            if contact['body'] == body:
-                sign = 1.0
-            elif contact['other'] == body:
-                sign = -1.0
-            else:
-                continue
-            push = float(contact['normal_force'])
-            normal, friction, point = (np.asarray(contact[key], dtype=np.float64).tolist()
-                                       for key in ('normal', 'friction_force', 'point'))
-            f = tuple(sign * (push * normal[i] + friction[i]) for i in range(3))
-            moment = _cross(tuple(point[i] - origin[i] for i in range(3)), f)
-            for i in range(3):
-                force[i] += f[i]
-                torque[i] += moment[i]
-        return (*_apply_transposed(rotation, force), *_apply_transposed(rotation, torque))
+
+def _per_env(array: np.ndarray, bodies: list[int]) -> list[tuple]:
+    """``array[e, b]`` (envs, bodies, ...) as lists of floats: per environment e, one for each
+    body b of ``bodies``. One basic index per body: NumPy's fancy indexing costs several times
+    more on arrays this small."""
+    return list(zip(*[array[:, b].tolist() for b in bodies]))
+
+
+def _wrench(rotation, origin, touching: list) -> tuple:
+    """A contact sensor's readings in FIELDS order: the force [N] and moment [N·m about
+    ``origin``] of the contacts ``touching`` it ((sign, contact) as ``SensorSet._touching``
+    gives them: normal_force·normal + friction_force at the contact's point, times the sign),
+    summed in their order and turned into the frame whose axes are ``rotation``'s columns."""
+    fx = fy = fz = tx = ty = tz = 0.0
+    for sign, contact in touching:
+        push = float(contact['normal_force'])
+        nx, ny, nz = contact['normal'].tolist()
+        ux, uy, uz = contact['friction_force'].tolist()
+        px, py, pz = contact['point'].tolist()
+        f = (sign * (push * nx + ux), sign * (push * ny + uy), sign * (push * nz + uz))
+        mx, my, mz = _cross((px - origin[0], py - origin[1], pz - origin[2]), f)
+        fx, fy, fz = fx + f[0], fy + f[1], fz + f[2]
+        tx, ty, tz = tx + mx, ty + my, tz + mz
+    return (*_apply_transposed(rotation, (fx, fy, fz)),
+            *_apply_transposed(rotation, (tx, ty, tz)))

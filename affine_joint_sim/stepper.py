@@ -14,6 +14,8 @@ import os
 import warnings
 import weakref
 from concurrent.futures import ThreadPoolExecutor
+from itertools import compress
+from operator import itemgetter
 
 import numpy as np
 import warp as wp
@@ -60,6 +62,25 @@ _OUTPUT_GROUPS = {'joints': ('joint_position', 'joint_velocity', 'joint_effort')
                   'contact_record': ('nearest_seen', 'most_contacts'),
                   'stats': ('stats_int', 'stats_float'), 'bodies': ('q', 'v'),
                   'coordinate': ('joint_coordinate',), 'history': ('v_prev',)}
+
+
+def _columns(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` (ascending joint indices) as a slice where it is one run (writing through a
+    slice is a plain copy, through an index array a gather), else itself."""
+    if len(index) and index[-1] - index[0] == len(index) - 1:
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
+
+
+def _stat_layout(host) -> tuple[list[str], itemgetter]:
+    """The names of the statistics a scene reports (``Stepper.stats``: the contact ones only
+    with contact, the coupled solve's only where bodies may touch each other) and what picks
+    their values, in that order, from those of STAT_INT_NAMES + STAT_FLOAT_NAMES."""
+    dropped = ((() if host.has_contact else CONTACT_STATS)
+               + (() if host.has_body_pairs else COUPLED_STATS))
+    every = STAT_INT_NAMES + STAT_FLOAT_NAMES
+    columns = [c for c, name in enumerate(every) if name not in dropped]
+    return [every[c] for c in columns], itemgetter(*columns)
 
 
 def _chunks(envs: int, threads: int | None) -> list[tuple[int, int]]:
@@ -119,8 +140,13 @@ class Stepper:
         self._index_of = {joint.name: k for k, joint in enumerate(scene.joints)}
         self._commanded = np.array([k for k, j in enumerate(scene.joints)
                                     if joint_kind(j.type).command is not None], dtype=np.intp)
-        self._commanded_limit = self._effort_limit[self._commanded]
+        self._command_columns = _columns(self._commanded)
+        # finite bounds (an unlimited joint's the largest float), so that |±Inf| fails the
+        # one comparison set_torques makes when every value is fine
+        self._commanded_limit = np.minimum(self._effort_limit[self._commanded],
+                                           np.finfo(np.float64).max)
         self._links = LinkFrames(scene)
+        self._stat_layout = _stat_layout(self._host)
         self._link_read = None          # link_transforms' replay, captured on its first read
         self._report = None             # contacts' replay, captured on its first read
         self._pair_name_cache = {}
@@ -198,8 +224,9 @@ class Stepper:
         held until changed.
 
         ``value`` is a scalar (every environment) or an array of shape (num_envs,). Values
-        above the joint's effort_limit are clamped with a warning; NaN/Inf raise ValueError,
-        and so does a fixed joint, which takes no command.
+        above the joint's effort_limit are clamped (``clamp_totals`` counts them; a warning
+        says so once per joint until reset); NaN/Inf raise ValueError, and so does a fixed
+        joint, which takes no command.
         """
         k = self._movable(name)
         limit = self._effort_limit[k]
@@ -212,17 +239,17 @@ class Stepper:
         if not finite:
             raise ValueError(f'joint {name!r}: torque must be finite, got {value!r}')
         if over:
-            self._say(f'joint {name!r}: |torque| above effort_limit {limit:g} N·m, clamped',
-                      stacklevel=3)
-            tau = np.clip(tau, -limit, limit)
+            slot = int(np.searchsorted(self._commanded, k))
+            column = np.reshape(tau, (-1, 1))
+            tau = self._clamp(column, np.abs(column), slice(slot, slot + 1), limit)[:, 0]
         self._torque[:, k] = tau
         self._uploads.written()
 
     def set_torques(self, values) -> None:
         """Set the torques [N·m] and forces [N] of every joint of ``command_joint_names`` at
         once, in that order: ``values`` of shape (n,) (every environment) or (num_envs, n).
-        As ``set_torque``: held until changed, clamped to effort_limit with a warning, NaN/Inf
-        raise ValueError (and so does another shape)."""
+        As ``set_torque``: held until changed, clamped to effort_limit (counted, said once per
+        joint until reset), NaN/Inf raise ValueError (and so does another shape)."""
         index = self._commanded
         tau = np.asarray(values, dtype=np.float64)
         if tau.shape not in ((len(index),), (self._envs, len(index))):
@@ -230,24 +257,48 @@ class Stepper:
                              f'{len(index)}) in command_joint_names order, got {tau.shape}')
         if not len(index):              # no joint takes a command (a lone box): nothing to set
             return
-        limits = self._commanded_limit
-        if not (np.abs(tau) <= limits).all():       # NaN, ±Inf or over a limit (rare)
-            bad = ~np.isfinite(tau).reshape(-1, len(index)).all(axis=0)
-            if bad.any():
+        limits, magnitude = self._commanded_limit, np.abs(tau)
+        if not (magnitude <= limits).all():     # NaN, ±Inf or over a limit
+            finite = np.isfinite(magnitude)
+            if not finite.all():
+                bad = ~finite.reshape(-1, len(index)).all(axis=0)
                 raise ValueError('set_torques: torque must be finite for ' + ', '.join(
                     self.scene.joints[k].name for k in index[bad]))
-            over = (np.abs(tau) > limits).reshape(-1, len(index)).any(axis=0)
-            self._say('|torque| above effort_limit, clamped: ' + ', '.join(
-                f'{self.scene.joints[k].name} ({self._effort_limit[k]:g} N·m)'
-                for k in index[over]), stacklevel=3)
-            tau = np.clip(tau, -limits, limits)
-        self._torque[:, index] = tau
+            tau = self._clamp(tau, magnitude, slice(None), limits)
+        self._torque[:, self._command_columns] = tau
         self._uploads.written()
+
+    @property
+    def clamp_totals(self) -> dict[str, int]:
+        """Per joint of ``command_joint_names``, the values ``set_torque``/``set_torques``
+        clamped to its effort_limit since the Stepper was made (a reset does not clear them; a
+        value given for every environment counts once)."""
+        return dict(zip(self.command_joint_names, self._clamp_totals.tolist()))
+
+    def _clamp(self, tau: np.ndarray, magnitude: np.ndarray, slots: slice,
+               limits) -> np.ndarray:
+        """``tau`` [N·m | N] (finite, shape (..., n)) of the joints ``slots`` of
+        command_joint_names (n of them), with ``magnitude`` |tau|, clipped to their effort
+        ``limits``: each value clipped counted in ``clamp_totals``, each joint said once until
+        reset (at set_torque(s)' caller's line)."""
+        over = magnitude > limits
+        counts = over if over.ndim == 1 else over.sum(axis=0)
+        self._clamp_totals[slots] += counts
+        new = [k for k, count in zip(self._commanded[slots].tolist(), counts.tolist())
+               if count and ('clamped', k) not in self._warned]
+        if new:
+            self._warned.update(('clamped', k) for k in new)
+            self._say('|torque| above effort_limit, clamped: ' + ', '.join(
+                f'{self.scene.joints[k].name!r} (effort_limit {self._effort_limit[k]:g} N·m)'
+                for k in new) + '; said once per joint until reset, clamp_totals counts every '
+                'value', stacklevel=4)
+        return np.copysign(np.minimum(magnitude, limits), tau)     # as np.clip, cheaper
 
     def set_enabled(self, name: str, enabled) -> None:
         """Enable (True) or disable joint ``name``'s torque (external_torque/is_constrained)."""
         k = self._movable(name)
         self._enabled[:, k] = self._per_env(name, enabled, np.bool_)
+        self._torque_mask[:, k] = (self._enabled[:, k] != 0) & bool(self._host.joint_has_free[k])
         self._uploads.written()
 
     def set_target(self, name: str, value) -> None:
@@ -447,20 +498,19 @@ class Stepper:
     def link_transforms(self) -> np.ndarray:
         """Rigid world transforms of the link frames, (..., n_links, 4, 4): each body's pose
         with A replaced by its nearest rotation (polar decomposition), times the link's pose
-        in the body. One replay of a captured launch for every environment's links (the
-        first read compiles and captures it); ``pose_reader`` gives chosen frames as
-        positions and quaternions."""
+        in the body. One replay of a captured launch for every environment's links, which
+        writes the 4×4 arrays themselves (the first read compiles and captures it), copied
+        out. ``pose_reader`` gives chosen frames as positions and quaternions, without a copy."""
         if self._link_read is None:
             links, envs = self._links, self._envs
-            self._link_read = self._frame_reader(
+            replay, rows = self._frame_reader(
                 np.tile(links.body, envs), np.tile(links.local, (envs, 1, 1)),
                 np.repeat(np.arange(envs), len(links.names)))
-        frames = self._link_read().reshape(self._envs, len(self._links.names), FRAME_COLUMNS)
-        out = np.zeros((*frames.shape[:2], 4, 4))
-        out[..., :3, :3] = frames[..., POSE_COLUMNS:].reshape(*frames.shape[:2], 3, 3)
-        out[..., :3, 3] = frames[..., :3]
-        out[..., 3, 3] = 1.0
-        return self._out(out)
+            transforms = rows[:, POSE_COLUMNS:].reshape(envs, len(links.names), 4, 4)
+            self._link_read = replay, transforms
+        replay, transforms = self._link_read
+        replay()
+        return self._out(transforms)
 
     def pose_reader(self, body, local, env: int = 0, parent=None, parent_local=None):
         """A function that returns, each time it is called, the rigid world poses of frames on
@@ -471,17 +521,21 @@ class Stepper:
         world) and ``parent_local`` (4×4 each), each pose is in that parent frame instead (the
         transforms of /tf). One replay of a captured launch, no Python per frame."""
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
-        read = self._frame_reader(body, local, np.full(len(local), env), parent, parent_local)
+        replay, rows = self._frame_reader(body, local, np.full(len(local), env), parent,
+                                          parent_local)
+        view = rows[:, :POSE_COLUMNS]
 
         def poses() -> np.ndarray:
-            return read()[:, :POSE_COLUMNS]
+            replay()
+            return view
 
-        poses.keep = read
+        poses.keep = replay
         return poses
 
     def _frame_reader(self, body, local, env, parent=None, parent_local=None):
-        """``pose_reader``'s replay, one environment per frame (``env``): each call returns
-        the (n, FRAME_COLUMNS) rows of ``physics.frames`` (position, quaternion, rotation)."""
+        """``pose_reader``'s replay, one environment per frame (``env``): (a function that
+        replays it, the (n, FRAME_COLUMNS) host view of ``physics.frames``' rows it fills:
+        position, quaternion, 4×4 transform)."""
         k = self._k
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
         if parent is None:
@@ -500,12 +554,13 @@ class Stepper:
         out = wp.zeros((len(local), FRAME_COLUMNS), dtype=wp.float64, device=self.device)
         replay = self._replay(frame_kernel(k.scalar), len(local), [self._state.q, *inputs],
                               [out])
-        return lambda: replay()[0]
+        return replay, replay.views[0]
 
     def _replay(self, kernel, dim, inputs: list, outputs: list):
         """A function that launches ``kernel`` over ``dim`` with ``inputs`` then ``outputs``
         (Warp arrays) as one replay of a captured graph and returns the outputs' host views
-        (copied from a GPU), valid until the next call."""
+        (copied from a GPU; the same arrays each call, also its ``views``), valid until the
+        next call."""
         on_host = [host_copy(array, not self.device.is_cpu) for array in outputs]
         wp.load_module(kernel.module, device=self.device)
         with wp.ScopedCapture(device=self.device) as capture:
@@ -522,6 +577,7 @@ class Stepper:
             return views
 
         read.keep = (inputs, outputs, on_host)      # the graph refers to these arrays
+        read.views = views
         return read
 
     @property
@@ -572,23 +628,16 @@ class Stepper:
         state), and ``active_terms``: the terms the next step evaluates (``torque`` only while
         some joint has an enabled, non-zero torque)."""
         ints, floats = self._read('stats_int'), self._read('stats_float')
+        names, pick = self._stat_layout
         if self._batched:
-            stats = {name: ints[:, i].copy() for i, name in enumerate(STAT_INT_NAMES)}
-            stats.update({name: floats[:, i].astype(np.float64)
-                          for i, name in enumerate(STAT_FLOAT_NAMES)})
+            values = pick([*ints.T, *floats.T.astype(np.float64)])
+            stats = {name: value.copy() for name, value in zip(names, values)}
             for name in _FLAGS:
                 stats[name] = stats[name].astype(bool)
         else:                   # Python scalars: a dict of NumPy scalars cost 40 µs a read
-            stats = dict(zip(STAT_INT_NAMES, ints[0].tolist()))
-            stats.update(zip(STAT_FLOAT_NAMES, floats[0].tolist()))
+            stats = dict(zip(names, pick(ints[0].tolist() + floats[0].tolist())))
             for name in _FLAGS:
                 stats[name] = bool(stats[name])
-        if not self._host.has_contact:
-            for name in CONTACT_STATS:
-                del stats[name]
-        if not self._host.has_body_pairs:
-            for name in COUPLED_STATS:
-                del stats[name]
         stats['active_terms'] = self._active_terms()
         stats['launches_per_step'] = len(self._chunks)
         return stats
@@ -684,30 +733,36 @@ class Stepper:
         self._torque, self._enabled, self._target, self._drive_enabled = (
             self._uploads.views.values())
         self._terms, self._terms_at = [], -1
+        self._with_torque = [*self._host.active_terms, 'torque']
+        # where a non-zero torque is a term of the step: enabled joints on a free body (kept
+        # by set_enabled)
+        self._torque_mask = np.zeros(self._torque.shape, dtype=bool)
         owner = {name: state if hasattr(state, name) else scratch
                  for names in _OUTPUT_GROUPS.values() for name in names}
         self._downloads = Downloads(dev, {group: {name: getattr(owner[name], name)
                                                   for name in names}
                                           for group, names in _OUTPUT_GROUPS.items()}, separate)
+        # _read(name): host view of state output name, current (downloaded on a GPU if it was
+        # not); bound once, as every read of an output goes through it
+        self._read = self._downloads.read
         state.nearest_seen.fill_(float('inf'))
         self._problems_host = host_copy(state.problem_counts, separate)
         self._problems = self._problems_host.numpy()
         self._problem_totals = np.zeros(len(PROBLEM_COLUMNS), dtype=np.int64)
-        self._warned = set()
+        self._clamp_totals = np.zeros(len(self._commanded), dtype=np.int64)
+        self._warned = set()        # said since the reset: problem kinds, ('clamped', joint)
 
     def _active_terms(self) -> list[str]:
         """The terms the next step evaluates (``torque`` while some joint on a free body has an
         enabled, non-zero torque), derived again only after the commands were written."""
         if self._terms_at != self._uploads.writes:
-            torqued = ((self._enabled != 0) & (self._torque != 0.0)
-                       & (self._host.joint_has_free != 0))
-            self._terms = list(self._host.active_terms) + ['torque'] * bool(torqued.any())
+            if self._batched:
+                torqued = self._torque.any(where=self._torque_mask)
+            else:           # one environment's joints: a Python scan costs less than NumPy's
+                torqued = any(compress(self._torque[0].tolist(), self._torque_mask[0].tolist()))
+            self._terms = self._with_torque if torqued else self._host.active_terms
             self._terms_at = self._uploads.writes
         return list(self._terms)
-
-    def _read(self, name: str) -> np.ndarray:
-        """Host view of state output ``name``, current (downloaded on a GPU if it was not)."""
-        return self._downloads.read(name)
 
     def _record(self):
         """Capture the step graphs: without (False) and with (True) the command upload; with
@@ -811,5 +866,7 @@ class Stepper:
         raise ValueError(f'joint {name!r}: expected {expected}, got shape {array.shape}')
 
     def _out(self, view) -> np.ndarray:
-        out = np.array(view, dtype=np.float64 if view.dtype.kind == 'f' else view.dtype)
-        return out if self._batched else out[0]
+        """A copy of host view ``view`` (floats as float64), without its env axis unless
+        batched."""
+        return (view if self._batched else view[0]).astype(
+            np.float64 if view.dtype.kind == 'f' else view.dtype)

@@ -111,3 +111,24 @@ def test_the_view_cost_row_times_a_node_in_process():
     assert row['scene'] == 'pendulum' and row['topics'].startswith('markers, body_poses')
     assert row['step_us'] > 0.0 and row['view_us'] > 0.0
     assert row['share'] == pytest.approx(100.0 * row['view_us'] / row['step_us'])
+
+
+def test_the_sensor_rows_time_the_packaged_quadruped_with_each_set_of_sensors(tmp_path):
+    import gc
+
+    from affine_joint_sim import Scene
+    from affine_joint_sim.bench import ros_loop
+
+    cases = [(label, str(ros_loop.sensor_scene(tmp_path, sensors)))
+             for label, sensors in ros_loop.SENSOR_RUNS]
+    packaged = Scene.load(scene_path(ros_loop.SENSOR_SCENE))
+    scenes = [Scene.load(path) for _, path in cases]
+    assert [[s.name for s in scene.sensors] for scene in scenes] == [
+        [], ['trunk_imu'], ['trunk_imu', 'FL_foot', 'FR_foot']]
+    assert all(scene.model_copy(update={'sensors': packaged.sensors}) == packaged
+               for scene in scenes)                 # the packaged scene but for its sensors
+    try:
+        step_us = ros_loop.sensor_cost(cases, ros_loop.QUICK._replace(sensor_steps=20))
+    finally:
+        gc.unfreeze()           # sensor_cost freezes the heap (``settle``), as the node does
+    assert list(step_us) == [label for label, _ in cases] and min(step_us.values()) > 0.0

@@ -13,6 +13,7 @@ import trimesh
 
 from affine_joint_sim.contact_schema import Collision
 from affine_joint_sim.physics.evaluate import Stages
+from affine_joint_sim.physics.mesh_hull import mesh_hull
 from affine_joint_sim.physics.pair_geometry import pair_distances, pair_weight, segment_params
 from affine_joint_sim.physics.primitives import (CYLINDER_SEGMENTS, box_surface,
                                                  cylinder_surface, moving_surface)
@@ -86,7 +87,8 @@ def test_surfaces_have_the_solids_edges_and_area(tmp_path):
     mesh = trimesh.creation.box(extents=[0.1, 0.2, 0.3])
     mesh.export(tmp_path / 'box.stl')
     geometry = Collision(mesh={'uri': str(tmp_path / 'box.stl')})
-    surface = moving_surface(geometry, 'a test')
+    surface = moving_surface(geometry, mesh_hull(str(tmp_path / 'box.stl'), [1.0] * 3,
+                                                 'a test', 1e-3))
     assert len(surface.vertices) == 8 and len(surface.faces) == 12
     assert len(surface.edges) == 18                 # 12 sides and a diagonal on each face
     assert _area(surface) == pytest.approx(_area(box_surface([0.05, 0.1, 0.15])))

@@ -9,9 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from affine_joint_sim.physics.mesh_points import MAX_MESH_POINTS, reduce_points
 from affine_joint_sim.scene import Scene, SceneError
-from affine_joint_sim.sim_warnings import SimulationDetail, SimulationWarning
 from affine_joint_sim.stepper import Stepper
 from helpers.barrier import resting_distance
 
@@ -68,36 +66,6 @@ def test_a_mesh_rests_on_its_vertices_like_the_same_box(tmp_path):
     assert sim.stats['contacts'] == 4
     assert sim.body_q[0][2] == pytest.approx(0.025 + resting_distance(G / 4, D_HAT, KAPPA),
                                              abs=1e-6)
-
-
-def test_a_fine_mesh_is_reduced_to_its_extremes_with_a_warning_naming_the_body(tmp_path):
-    import trimesh
-    ball = trimesh.creation.icosphere(subdivisions=2, radius=0.05)    # 162 vertices
-    ball.export(tmp_path / 'ball.stl')
-    scene = Scene.from_dict({
-        'bodies': [{'name': 'ball', 'shape': {'sphere': {'radius': 0.05}}, 'mass': 1.0,
-                    'position': [0.0, 0.0, 0.1],
-                    'collision': [{'mesh': {'uri': str(tmp_path / 'ball.stl')}}]}],
-        'ground': {'height': 0.0}})
-    with pytest.warns(SimulationDetail, match=rf"body 'ball' \(bodies\[0\]\.collision\[0\]\):"
-                      rf".* has 162 distinct vertices; contact uses {MAX_MESH_POINTS}"):
-        with pytest.warns(SimulationWarning, match=r"^scene '.*': collision meshes reduced for "
-                          rf'contact: 1 \(worst: ball.stl 162 → {MAX_MESH_POINTS} vertices\)'):
-            sim = Stepper(scene)
-    for _ in range(100):
-        sim.step()
-        assert sim.stats['min_distance'] > 0.0
-    points = np.unique(np.asarray(ball.vertices), axis=0)
-    kept, gap = reduce_points(points, MAX_MESH_POINTS)
-    assert len(np.unique(kept, axis=0)) == MAX_MESH_POINTS
-    assert np.abs(kept).max(axis=0) == pytest.approx(np.abs(points).max(axis=0))   # the poles
-    edge = np.sort(np.linalg.norm(points - points[0], axis=1))[1]
-    assert 0.0 < gap < 1.5 * edge          # the rest spread: no hole much wider than an edge
-    brick = trimesh.creation.box([0.2, 0.1, 0.05]).subdivide().subdivide()
-    corners = {tuple(c) for c in 0.5 * np.array([0.2, 0.1, 0.05]) * np.array(
-        [[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])}
-    kept, _ = reduce_points(np.unique(np.asarray(brick.vertices), axis=0), 30)
-    assert corners <= {tuple(c) for c in kept}      # a box's corners always
 
 
 def test_a_collision_mesh_that_cannot_be_read_is_one_line(tmp_path):

@@ -226,7 +226,7 @@ def test_the_barrier_gradient_against_a_triangle_matches_finite_differences(tmp_
 def test_a_large_static_mesh_is_reduced_with_a_warning_naming_the_body(tmp_path):
     import trimesh
 
-    from affine_joint_sim.physics.mesh_points import MAX_STATIC_TRIANGLES
+    from affine_joint_sim.physics.static_mesh import MAX_STATIC_TRIANGLES
     from affine_joint_sim.sim_warnings import SimulationDetail
     rock = trimesh.creation.icosphere(subdivisions=3, radius=0.2)          # 1280 faces
     rock.export(tmp_path / 'rock.stl')
@@ -244,27 +244,3 @@ def test_a_large_static_mesh_is_reduced_with_a_warning_naming_the_body(tmp_path)
         touched = max(touched, sim.stats['contacts'])
     assert touched >= 1                                 # the ball lands on the rock
 
-
-def test_a_moving_mesh_reduced_twice_is_one_item_of_the_summary(tmp_path):
-    """Its vertices (contact points, at most MAX_MESH_POINTS) and its surface triangles (what
-    static geometry touches, at most MAX_MOVING_TRIANGLES) are reduced apart, each with its own
-    count: before, two warnings of ~300 characters for one mesh."""
-    import warnings
-
-    import trimesh
-
-    from affine_joint_sim.sim_warnings import SimulationDetail, SimulationWarning
-    trimesh.creation.icosphere(subdivisions=2, radius=0.05).export(tmp_path / 'ball.stl')
-    fixed = {'name': 'slab', 'fixed': True, 'mass': 1.0, 'shape': {'box': [1.0, 1.0, 0.1]},
-             'collision': 'shape'}
-    scene = _scene(fixed, {'shape': {'sphere': {'radius': 0.05}}, 'position': [0, 0, 0.3],
-                           'collision': [{'mesh': {'uri': str(tmp_path / 'ball.stl')}}]})
-    with warnings.catch_warnings(record=True) as said:
-        warnings.simplefilter('always')
-        Stepper(scene)
-    details = [str(w.message) for w in said if w.category is SimulationDetail]
-    summaries = [str(w.message) for w in said if w.category is SimulationWarning]
-    assert len(details) == 2, details
-    assert '162 distinct vertices' in details[0] and '320 triangles' in details[1]
-    assert len(summaries) == 1 and 'collision meshes reduced for contact: 1 (worst: ' \
-        in summaries[0], summaries

@@ -162,3 +162,27 @@ def test_a_sensor_name_too_long_for_a_topic_is_refused_in_one_line(tmp_path):
     line = done.stderr.strip().splitlines()[-1]
     assert line.startswith("affine-joint-sim: error: sensor 'touchtouch") and \
         line.endswith('use a shorter sensor name'), line
+
+
+def test_the_messages_carry_every_reading_bit_for_bit(scene):
+    """SensorMessages writes each value of a reading (``Stepper.sensors``) into its message
+    field, signed zeros and all, with the stamp and the sensor's frame."""
+    from affine_joint_sim import Scene
+    from affine_joint_sim.ros.sensor_messages import SensorMessages, message_values, sensor_values
+    from affine_joint_sim.ros.topics import load_topics
+    from affine_joint_sim.sensors import FIELDS
+
+    topics = load_topics()
+    messages = SensorMessages(Scene.load(scene), topics)
+    rng = np.random.default_rng(3)
+    readings = {name: {key: rng.standard_normal(size) for key, size in FIELDS[kind].items()}
+                for name, kind, _ in messages.sensors}
+    readings['box_touch']['torque'][:] = [0.0, -0.0, 0.0]
+    filled = messages.fill(readings, 12_000_000_034)
+    assert [name for name, _ in filled] == ['link_imu', 'box_imu', 'box_touch']
+    for (name, raw), (_, kind, key) in zip(filled, messages.sensors):
+        msg = deserialize_message(raw, topics[key].msg_class)
+        assert message_values(kind, msg).tobytes() == \
+            sensor_values(kind, readings[name]).tobytes(), name
+        assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (12, 34)
+        assert msg.header.frame_id == name.split('_')[0]

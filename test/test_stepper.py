@@ -1,6 +1,7 @@
 """Stepper behaviour against closed forms, an ODE reference and conservation laws."""
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -231,6 +232,34 @@ def test_bad_commands_are_rejected_and_limits_clamp():
     assert sim.efforts[0] == -2.0
 
 
+def test_clamped_torques_are_counted_and_said_once_per_joint_until_reset():
+    """A controller whose command saturates every step is told once per joint, not every
+    call; clamp_totals counts every value clamped (per environment), resets included."""
+    data = pinned_link().model_dump(exclude_none=True)
+    data['joints'][0]['effort_limit'] = 2.0
+    sim = Stepper(Scene.from_dict(data), num_envs=3)
+    with pytest.warns(SimulationWarning, match=r"'hinge' \(effort_limit 2 N·m\)"):
+        sim.set_torques([[5.0], [1.0], [-9.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')                  # said already: counted, not said
+        sim.set_torques([-7.0])
+        sim.set_torque('hinge', 3.0)
+    assert sim.clamp_totals == {'hinge': 4} and np.array_equal(sim.torques[:, 0], [2.0] * 3)
+    sim.reset()
+    with pytest.warns(SimulationWarning, match='effort_limit 2'):
+        sim.set_torque('hinge', np.array([-3.0, 0.5, 2.0]))
+    assert sim.clamp_totals == {'hinge': 5} and np.array_equal(sim.torques[:, 0], [-2.0, 0.5, 2.0])
+
+
+def test_an_infinite_torque_is_refused_on_a_joint_without_an_effort_limit():
+    """|±Inf| is not below an infinite limit: set_torques' one comparison must not pass it."""
+    sim = Stepper(pinned_link())
+    for value in (math.inf, -math.inf):
+        with pytest.raises(ValueError, match='torque must be finite for hinge'):
+            sim.set_torques([value])
+    assert sim.torques[0] == 0.0
+
+
 @pytest.mark.parametrize('scene_name', PACKAGED)
 def test_packaged_scene_converges_every_step_with_small_joint_gap(scene_name):
     """Under small constant torques, or the scene's own control script where it has one
@@ -414,4 +443,7 @@ def test_link_transforms_are_each_bodys_polar_rotation_times_the_links_pose():
     bodies = rigid_transforms(sim.body_q)                   # (2, n_bodies, 4, 4)
     expected = bodies[:, links.body] @ links.local
     assert not np.allclose(expected[0], expected[1], atol=1e-3)     # two different states
+    np.testing.assert_allclose(sim.link_transforms, expected, rtol=0.0, atol=1e-12)
+    kept = sim.link_transforms                  # a copy: the next read does not change it
+    kept[...] = 0.0
     np.testing.assert_allclose(sim.link_transforms, expected, rtol=0.0, atol=1e-12)

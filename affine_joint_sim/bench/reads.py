@@ -4,9 +4,10 @@ Each packaged scene runs under a joint PD law that holds its initial angles (kp,
 none for scenes without commanded joints), and every step the loop reads what a controller
 reads: ``angles``, ``velocities``, ``link_transforms``, ``stats``, then ``set_torques``; and
 what a contact sensor or a contact marker reads, ``contacts``. Each call is timed on its own
-(perf_counter around it) after a settling run, and reported in µs and as a share of the step
-(the step timed the same way). The target: the controller's five calls together at most a
-quarter of a step, a contact read at most one step. Writes reads.md and reads.csv.
+(perf_counter around it; the PD law's own arithmetic is the controller's, not timed) after a
+settling run, and reported in µs and as a share of the step (the step timed the same way).
+The target: the controller's five calls together at most a quarter of a step, a contact read
+at most one step. Writes reads.md and reads.csv.
 """
 
 import time
@@ -57,10 +58,10 @@ def read_costs(scene_name: str, settle: int, steps: int) -> dict:
                 start = time.perf_counter()
                 read()
                 clock[name] = time.perf_counter() - start
-            angles = sim.angles[sim.command_joint_index]
-            velocities = sim.velocities[sim.command_joint_index]
+            index = sim.command_joint_index
+            command = KP * (hold - sim.angles[index]) - KD * sim.velocities[index]
             start = time.perf_counter()
-            sim.set_torques(KP * (hold - angles) - KD * velocities)
+            sim.set_torques(command)
             clock['set_torques'] = time.perf_counter() - start
             if k >= settle:
                 for name, seconds in clock.items():

@@ -46,7 +46,7 @@ def build(t) -> SimpleNamespace:
     distance, statics, point_pairs = t.contact_distance, t.statics, t.point_pairs
     static_pairs, pair_count, pair_bodies = t.static_pairs, t.pair_count, t.pair_bodies
     pair_gap, gap_at, other_state = t.pair_gap, t.gap_at, t.other_state
-    pair_weight, motion, reach = t.pair_weight, t.motion, t.reach
+    pair_weight, motion, reach, unit_gap = t.pair_weight, t.motion, t.reach, t.unit_gap
     keep = scalar(1.0 - STEP_SLACK)
     arrival, stiff = scalar(1.0 - ARRIVING), scalar(STIFF)
     impact_acceleration, impact_share = scalar(IMPACT_ACCELERATION), scalar(IMPACT_SHARE)
@@ -132,36 +132,122 @@ def build(t) -> SimpleNamespace:
                                                               wp.length(c2 - centre)))
 
     @wp.func
+    def body_axes(q: vec12):
+        """The unit directions [world] of the axes of a body at state q (A's columns
+        normalized), as rows."""
+        a = affine(q)
+        return wp.matrix_from_rows(wp.normalize(vec3(a[0, 0], a[1, 0], a[2, 0])),
+                                   wp.normalize(vec3(a[0, 1], a[1, 1], a[2, 1])),
+                                   wp.normalize(vec3(a[0, 2], a[1, 2], a[2, 2])))
+
+    @wp.func
+    def in_box(axes: mat33, low: vec3, high: vec3, centre: vec3, size: scalar, reach_: scalar):
+        """Whether a ball (``centre``, radius ``size``) comes within ``reach_`` of the slabs
+        between ``low`` and ``high`` along the three unit directions ``axes`` (rows)."""
+        height = axes @ centre
+        inside = True
+        for k in range(3):
+            if height[k] - size - high[k] >= reach_ or low[k] - height[k] - size >= reach_:
+                inside = False
+        return inside
+
+    @wp.func
+    def near_body(scratch: Scratch, env: int, b: int, axes: mat33, n: vec3, top: scalar,
+                  centre: vec3, size: scalar, reach_: scalar):
+        """Whether a ball (``centre``, radius ``size``) may come within ``reach_`` of body b
+        at q_n: b lies below ``top`` along n and within its box along its ``axes``."""
+        return wp.dot(n, centre) - size - top < reach_ and in_box(
+            axes, scratch.body_low[env, b], scratch.body_high[env, b], centre, size, reach_)
+
+    @wp.func
+    def list_near(scratch: Scratch, env: int, centres: wp.array2d(dtype=vec3),
+                  sizes: wp.array2d(dtype=scalar), first: int, end: int, b: int, n: vec3,
+                  top: scalar, reach_: scalar, into: wp.array2d(dtype=int)):
+        """Into ``into[env]`` from 0, the balls ``first`` … ``end`` − 1 (``centres``,
+        ``sizes``) that may come within ``reach_`` of body b (``near_body``); returns how
+        many."""
+        axes = body_axes(scratch.q_n[env, b])
+        count = int(0)
+        for k in range(first, end):
+            if near_body(scratch, env, b, axes, n, top, centres[env, k], sizes[env, k], reach_):
+                into[env, count] = k
+                count += 1
+        return count
+
+    @wp.func
     def place_primitives(model: Model, scratch: Scratch, env: int, b: int):
-        """Body b's contact points, edge balls and face balls at q_n into scratch (the broad
-        phase of pairs of bodies)."""
+        """Body b's contact points, edge balls and face balls at q_n into scratch, and its
+        extent along its own axes (``body_axes``: body_low, body_high), over its points and
+        edge balls (its faces' corners are its edges' ends): the broad phase of pairs of
+        bodies."""
         q = scratch.q_n[env, b]
+        axes = body_axes(q)
+        low = vec3(infinity, infinity, infinity)
+        high = -low
         for i in range(model.body_first_point[b], model.body_first_point[b + 1]):
-            scratch.point_world[env, i] = world_point(q, model.point_rest[i])
+            x = world_point(q, model.point_rest[i])
+            scratch.point_world[env, i] = x
+            scratch.point_size[env, i] = model.point_radius[i]
+            radius = vec3(model.point_radius[i], model.point_radius[i], model.point_radius[i])
+            low = wp.min(low, axes @ x - radius)
+            high = wp.max(high, axes @ x + radius)
         for e in range(model.body_first_edge[b], model.body_first_edge[b + 1]):
             middle, size = edge_ball(model, q, e)
             scratch.edge_centre[env, e] = middle
             scratch.edge_size[env, e] = size
+            low = wp.min(low, axes @ middle - vec3(size, size, size))
+            high = wp.max(high, axes @ middle + vec3(size, size, size))
+        scratch.body_low[env, b] = low
+        scratch.body_high[env, b] = high
         for f in range(model.body_first_face[b], model.body_first_face[b + 1]):
             centre, size = face_ball(q, model.face_rest[f])
             scratch.face_centre[env, f] = centre
             scratch.face_size[env, f] = size
 
     @wp.func
-    def gather_faces(model: Model, scratch: Scratch, env: int, a: int, b: int, reach_: scalar,
-                     at: int):
-        """The (point of body a, face of body b) pairs within ``reach_`` at q_n into
-        near_pairs from index ``at`` (bounding spheres first); returns the next free index."""
+    def gather_pairs(model: Model, scratch: Scratch, env: int, a: int, b: int, n: vec3,
+                     top: scalar, bottom: scalar, reach_: scalar,
+                     centres: wp.array2d(dtype=vec3), sizes: wp.array2d(dtype=scalar),
+                     first: int, end: int, centres_b: wp.array2d(dtype=vec3),
+                     sizes_b: wp.array2d(dtype=scalar), first_b: int, end_b: int,
+                     listed_b: wp.array2d(dtype=int), base: int, at: int):
+        """The pairs of body a's primitives ``first`` … ``end`` − 1 (balls ``centres``,
+        ``sizes`` at q_n: its points or edges) with body b's ``first_b`` … ``end_b`` − 1
+        (its faces or edges) within ``reach_``, numbered from ``base`` row by row, into
+        near_pairs from index ``at``; returns the next free index. Only a primitive of a
+        within reach of b's slab (b lies below ``top`` along n) and b's box, and one of b
+        within reach of a's (a lies above ``bottom``; listed in ``listed_b``), are paired,
+        by bounding spheres, then the exact distance."""
+        axes_b = body_axes(scratch.q_n[env, b])
+        count = list_near(scratch, env, centres_b, sizes_b, first_b, end_b, a, -n, -bottom,
+                          reach_, listed_b)
         out = at
-        faces = model.face_body.shape[0]
-        for i in range(model.body_first_point[a], model.body_first_point[a + 1]):
-            x = scratch.point_world[env, i]
-            for f in range(model.body_first_face[b], model.body_first_face[b + 1]):
-                if (wp.length(x - scratch.face_centre[env, f]) - scratch.face_size[env, f]
-                        - model.point_radius[i] < reach_):
-                    out = add_near(model, scratch, env, static_pairs(model) + i * faces + f,
-                                   reach_, out)
+        for i in range(first, end):
+            centre = centres[env, i]
+            size = sizes[env, i]
+            if near_body(scratch, env, b, axes_b, n, top, centre, size, reach_):
+                row = base + (i - first) * (end_b - first_b) - first_b
+                for k in range(count):
+                    j = listed_b[env, k]
+                    if wp.length(centre - centres_b[env, j]) - size - sizes_b[env, j] < reach_:
+                        out = add_near(model, scratch, env, row + j, reach_, out)
         return out
+
+    @wp.func
+    def extent(model: Model, scratch: Scratch, env: int, b: int, n: vec3):
+        """(lowest, highest) [m] along n of body b's contact points and edge balls at q_n
+        (placed by ``place_primitives``): its faces' corners are its edges' ends."""
+        low = infinity
+        high = -infinity
+        for i in range(model.body_first_point[b], model.body_first_point[b + 1]):
+            height = wp.dot(n, scratch.point_world[env, i])
+            low = wp.min(low, height - model.point_radius[i])
+            high = wp.max(high, height + model.point_radius[i])
+        for e in range(model.body_first_edge[b], model.body_first_edge[b + 1]):
+            height = wp.dot(n, scratch.edge_centre[env, e])
+            low = wp.min(low, height - scratch.edge_size[env, e])
+            high = wp.max(high, height + scratch.edge_size[env, e])
+        return low, high
 
     @wp.func
     def static_gap(model: Model, edge: int, s: int, centre: vec3, size: scalar):
@@ -184,48 +270,77 @@ def build(t) -> SimpleNamespace:
                       edge: int, centre: vec3, size: scalar, reach: scalar, base: int, at: int):
         """The static edges (``edge`` ≠ 0) or vertices within ``reach`` of a moving edge's or
         face's ball (``centre``, ``size``), surface by surface (``ends``: each surface's end
-        in them; a surface whose bounding sphere is farther is skipped, ``near_surface``),
-        into near_pairs as pair ``base + s``; returns the next free index."""
+        in them; a surface whose bounding sphere is farther is skipped, ``near_surface``, and
+        one the moving side may not touch: its pairs share their pair_on), into near_pairs as
+        pair ``base + s``; returns the next free index."""
         s0 = int(0)
         for g in range(model.surface_radius.shape[0]):
             s1 = ends[g]
-            if near_surface(model, g, centre, size) < reach:
+            if s1 > s0 and model.pair_on[base + s0] != 0 and near_surface(
+                    model, g, centre, size) < reach:
                 for s in range(s0, s1):
                     if static_gap(model, edge, s, centre, size) < reach:
                         at = add_near(model, scratch, env, base + s, reach, at)
             s0 = s1
         return at
 
+    @wp.func(inline=True)
+    def triangle_far(model: Model, s: int, x: vec3, reach_: scalar):
+        """Whether shape s (none for s < 0) is a static triangle whose bounding sphere about
+        its centroid is farther than ``reach_`` [m] from the point x."""
+        far = False
+        if s >= 0:
+            if model.shape_kind[s] == 5:
+                far = wp.length(x - model.shape_center[s]) - model.shape_size[s][0] >= reach_
+        return far
+
     @wp.func
     def gather_bodies(model: Model, scratch: Scratch, env: int, start: int):
         """The pairs of bodies within d̂ + both bodies' margins at q_n into near_pairs from
         index ``start``: per pair of bodies that may touch, whose bounding spheres are that
         near, its points against the other's faces both ways and its edges against the
-        other's; returns the next free index."""
+        other's, each side's primitives only where they reach the other's slab along the
+        line of their centres and its box along its own axes; returns the next free index."""
         at = start
         for b in range(model.body_reach.shape[0]):
             if model.body_first_point[b] < model.body_first_point[b + 1]:
                 place_primitives(model, scratch, env, b)
-        first = static_pairs(model) + model.point_body.shape[0] * model.face_body.shape[0]
-        edges = model.edge_body.shape[0]
         for j in range(model.touch_a.shape[0]):
             a = model.touch_a[j]
             b = model.touch_b[j]
             reach_ = model.contact_d_hat + scratch.body_margin[env, a] + scratch.body_margin[env, b]
             qa = scratch.q_n[env, a]
             qb = scratch.q_n[env, b]
-            apart = (wp.length(vec3(qa[0] - qb[0], qa[1] - qb[1], qa[2] - qb[2]))
-                     - model.body_bound[a] * spread(qa) - model.body_bound[b] * spread(qb))
+            length, n = unit_gap(vec3(qa[0] - qb[0], qa[1] - qb[1], qa[2] - qb[2]))
+            apart = length - model.body_bound[a] * spread(qa) - model.body_bound[b] * spread(qb)
             if apart < reach_:
-                at = gather_faces(model, scratch, env, a, b, reach_, at)
-                at = gather_faces(model, scratch, env, b, a, reach_, at)
-                for e in range(model.body_first_edge[a], model.body_first_edge[a + 1]):
-                    centre = scratch.edge_centre[env, e]
-                    size = scratch.edge_size[env, e]
-                    for s in range(model.body_first_edge[b], model.body_first_edge[b + 1]):
-                        if (wp.length(centre - scratch.edge_centre[env, s]) - size
-                                - scratch.edge_size[env, s] < reach_):
-                            at = add_near(model, scratch, env, first + e * edges + s, reach_, at)
+                low_a, high_a = extent(model, scratch, env, a, n)
+                low_b, high_b = extent(model, scratch, env, b, n)
+                base = static_pairs(model) + model.touch_first[j]
+                points_a = model.body_first_point[a]
+                points_b = model.body_first_point[b]
+                faces_a = model.body_first_face[a]
+                faces_b = model.body_first_face[b]
+                at = gather_pairs(model, scratch, env, a, b, n, high_b, low_a, reach_,
+                                  scratch.point_world, scratch.point_size, points_a,
+                                  model.body_first_point[a + 1], scratch.face_centre,
+                                  scratch.face_size, faces_b, model.body_first_face[b + 1],
+                                  scratch.slab_faces, base, at)
+                base += ((model.body_first_point[a + 1] - points_a)
+                         * (model.body_first_face[b + 1] - faces_b))
+                at = gather_pairs(model, scratch, env, b, a, -n, -low_a, -high_b, reach_,
+                                  scratch.point_world, scratch.point_size, points_b,
+                                  model.body_first_point[b + 1], scratch.face_centre,
+                                  scratch.face_size, faces_a, model.body_first_face[a + 1],
+                                  scratch.slab_faces, base, at)
+                base += ((model.body_first_point[b + 1] - points_b)
+                         * (model.body_first_face[a + 1] - faces_a))
+                at = gather_pairs(model, scratch, env, a, b, n, high_b, low_a, reach_,
+                                  scratch.edge_centre, scratch.edge_size,
+                                  model.body_first_edge[a], model.body_first_edge[a + 1],
+                                  scratch.edge_centre, scratch.edge_size,
+                                  model.body_first_edge[b], model.body_first_edge[b + 1],
+                                  scratch.slab_edges, base, at)
         return at
 
     @wp.func(inline=INLINE)
@@ -240,11 +355,14 @@ def build(t) -> SimpleNamespace:
         at = start
         first = point_pairs(model)
         things = statics(model)
+        planes = model.plane_offset.shape[0]
         for i in range(model.point_body.shape[0]):
             b = model.point_body[i]
             reach = model.contact_d_hat + scratch.body_margin[env, b]
+            x = world_point(scratch.q_n[env, b], model.point_rest[i])
             for g in range(things):
-                if model.pair_on[i * things + g] != 0:
+                if model.pair_on[i * things + g] != 0 and not triangle_far(
+                        model, g - planes, x, model.point_radius[i] + reach):
                     d, n = distance(model, scratch.q_n[env, b], i, g)
                     if d < reach:
                         scratch.near_pairs[env, at] = i * things + g

@@ -2,11 +2,11 @@
 normal and nearest points at any state (docs/physics.md#contact).
 
 A pair is a contact point and a static thing, a moving edge and a static edge, a moving face
-and a static vertex (the static pairs, numbered in that order and in model.pair_on), then a
-contact point and a face of another body, then two edges of two bodies (pairs of bodies,
-numbered densely: point i, face f at static_pairs + i·faces + f; edges e < s at
-body_faces_end + e·edges + s; only those of bodies that may touch each other are ever
-evaluated). Every distance is that of the nearest points of the two sides, so by the
+and a static vertex (the static pairs, numbered in that order and in model.pair_on), then the
+pairs of bodies that may touch each other, from static_pairs + touch_first[j] for the j-th
+pair of bodies (a, b): the points of a against the faces of b, the points of b against the
+faces of a, the edges of a against the edges of b, each block row by row (``body_pair``).
+Every distance is that of the nearest points of the two sides, so by the
 envelope theorem its gradient is J(x̄)ᵀ n for the first side's nearest rest point x̄ and
 −J(ȳ)ᵀ n for the other's ȳ, n the unit normal from the other side towards the first.
 
@@ -219,14 +219,54 @@ def build(t) -> SimpleNamespace:
         return model.pair_on.shape[0]
 
     @wp.func(inline=True)
-    def body_faces_end(model: Model):
-        """The end of the (point, face of another body) pairs."""
-        return static_pairs(model) + model.point_body.shape[0] * model.face_body.shape[0]
-
-    @wp.func(inline=True)
     def pair_count(model: Model):
         """Every pair numbered: the static ones, then those of pairs of bodies."""
-        return body_faces_end(model) + model.edge_body.shape[0] * model.edge_body.shape[0]
+        return static_pairs(model) + model.touch_first[model.touch_a.shape[0]]
+
+    @wp.func
+    def block_item(first: int, other: int, others: int, k: int):
+        """(first + k / others, other + k % others): the k-th pair of a block numbered row by
+        row, ``others`` to a row."""
+        row = k / others
+        return first + row, other + k - row * others
+
+    @wp.func
+    def body_pair(model: Model, p: int):
+        """(family: 0 a point against a face, 1 an edge against an edge; the first side's
+        point or edge; the other side's face or edge) of pair p, one of a pair of bodies."""
+        k = p - static_pairs(model)
+        low = int(0)
+        high = model.touch_a.shape[0]
+        while high - low > 1:                   # touch_first[low] ≤ k < touch_first[high]
+            middle = (low + high) / 2
+            if model.touch_first[middle] <= k:
+                low = middle
+            else:
+                high = middle
+        a = model.touch_a[low]
+        b = model.touch_b[low]
+        k = k - model.touch_first[low]
+        family = int(0)
+        points_a = model.body_first_point[a + 1] - model.body_first_point[a]
+        faces_b = model.body_first_face[b + 1] - model.body_first_face[b]
+        first = int(0)
+        other = int(0)
+        if k < points_a * faces_b:
+            first, other = block_item(model.body_first_point[a], model.body_first_face[b],
+                                      faces_b, k)
+        else:
+            k = k - points_a * faces_b
+            points_b = model.body_first_point[b + 1] - model.body_first_point[b]
+            faces_a = model.body_first_face[a + 1] - model.body_first_face[a]
+            if k < points_b * faces_a:
+                first, other = block_item(model.body_first_point[b], model.body_first_face[a],
+                                          faces_a, k)
+            else:
+                family = 1
+                first, other = block_item(model.body_first_edge[a], model.body_first_edge[b],
+                                          model.body_first_edge[b + 1]
+                                          - model.body_first_edge[b], k - points_b * faces_a)
+        return family, first, other
 
     @wp.func(inline=True)
     def pair_bodies(model: Model, p: int):
@@ -242,16 +282,14 @@ def build(t) -> SimpleNamespace:
             k = p - point_pairs(model) - edge_pairs(model)
             body = model.face_body[k / model.static_vertex.shape[0]]
         if wp.static(bodies):
-            if p >= body_faces_end(model):
-                k = p - body_faces_end(model)
-                e = k / model.edge_body.shape[0]
-                body = model.edge_body[e]
-                other = model.edge_body[k - e * model.edge_body.shape[0]]
-            elif p >= static_pairs(model):
-                k = p - static_pairs(model)
-                i = k / model.face_body.shape[0]
-                body = model.point_body[i]
-                other = model.face_body[k - i * model.face_body.shape[0]]
+            if p >= static_pairs(model):
+                family, first, second = body_pair(model, p)
+                if family == 0:
+                    body = model.point_body[first]
+                    other = model.face_body[second]
+                else:
+                    body = model.edge_body[first]
+                    other = model.edge_body[second]
         return body, other
 
     @wp.func
@@ -299,20 +337,17 @@ def build(t) -> SimpleNamespace:
                 zero)
 
     @wp.func
-    def body_face_gap(model: Model, q: vec12, q_other: vec12, k: int):
-        """``pair_gap`` of the k-th (point, face of another body) pair."""
-        i = k / model.face_body.shape[0]
+    def body_face_gap(model: Model, q: vec12, q_other: vec12, i: int, f: int):
+        """``pair_gap`` of point i against face f of another body."""
         x = world_point(q, model.point_rest[i])
-        rest_other = triangle_rest(q_other, model.face_rest[k - i * model.face_body.shape[0]], x)
+        rest_other = triangle_rest(q_other, model.face_rest[f], x)
         length, n = unit_gap(x - world_point(q_other, rest_other))
         return (length - model.point_radius[i], n, model.point_rest[i], model.point_radius[i],
                 rest_other, zero)
 
     @wp.func
-    def body_edge_gap(model: Model, q: vec12, q_other: vec12, k: int):
-        """``pair_gap`` of the k-th (edge, edge of another body) pair."""
-        e = k / model.edge_body.shape[0]
-        s = k - e * model.edge_body.shape[0]
+    def body_edge_gap(model: Model, q: vec12, q_other: vec12, e: int, s: int):
+        """``pair_gap`` of edge e against edge s of another body."""
         ea = model.edge_a[e]
         eb = model.edge_b[e]
         sa = model.edge_a[s]
@@ -342,10 +377,11 @@ def build(t) -> SimpleNamespace:
         if p < point_pairs(model) + edge_pairs(model):
             return static_edge_gap(model, q, p - point_pairs(model))
         if wp.static(bodies):
-            if p >= body_faces_end(model):
-                return body_edge_gap(model, q, q_other, p - body_faces_end(model))
             if p >= static_pairs(model):
-                return body_face_gap(model, q, q_other, p - static_pairs(model))
+                family, first, second = body_pair(model, p)
+                if family == 0:
+                    return body_face_gap(model, q, q_other, first, second)
+                return body_edge_gap(model, q, q_other, first, second)
         return static_vertex_gap(model, q, p - point_pairs(model) - edge_pairs(model))
 
     @wp.func(inline=True)
@@ -391,13 +427,13 @@ def build(t) -> SimpleNamespace:
             other = model.static_edge_b[s] - model.static_edge_a[s]
             weight = mollifier(own, affine(q_n) @ own, other, other)
         if wp.static(bodies):
-            if p >= body_faces_end(model):
-                k = p - body_faces_end(model)
-                e = k / model.edge_body.shape[0]
-                s = k - e * model.edge_body.shape[0]
-                own = model.edge_b[e] - model.edge_a[e]
-                other = model.edge_b[s] - model.edge_a[s]
-                weight = mollifier(own, affine(q_n) @ own, other, affine(q_other_n) @ other)
+            if p >= static_pairs(model):
+                family, e, s = body_pair(model, p)
+                if family == 1:
+                    own = model.edge_b[e] - model.edge_a[e]
+                    other = model.edge_b[s] - model.edge_a[s]
+                    weight = mollifier(own, affine(q_n) @ own, other,
+                                       affine(q_other_n) @ other)
         return weight
 
     @wp.func
@@ -445,20 +481,19 @@ def build(t) -> SimpleNamespace:
                                                     / model.static_vertex.shape[0]],
                                 vec3(zero, zero, zero))
         if wp.static(bodies):
-            if p >= body_faces_end(model):
-                k = p - body_faces_end(model)
-                e = k / model.edge_body.shape[0]
-                most = edges_reach(model, dq, e, dq_other, k - e * model.edge_body.shape[0])
-            elif p >= static_pairs(model):
-                k = p - static_pairs(model)
-                i = k / model.face_body.shape[0]
-                most = corner_reach(dq_other, model.face_rest[k - i * model.face_body.shape[0]],
-                                    world_point(dq, model.point_rest[i]))
+            if p >= static_pairs(model):
+                family, first, second = body_pair(model, p)
+                if family == 1:
+                    most = edges_reach(model, dq, first, dq_other, second)
+                else:
+                    most = corner_reach(dq_other, model.face_rest[second],
+                                        world_point(dq, model.point_rest[first]))
         return most
 
     return SimpleNamespace(triangle_weights=triangle_weights, contact_distance=distance,
                            statics=statics, point_pairs=point_pairs, edge_pairs=edge_pairs,
                            static_pairs=static_pairs, pair_count=pair_count,
                            pair_bodies=pair_bodies, pair_gap=pair_gap, gap_at=gap_at,
+                           unit_gap=unit_gap,
                            other_state=other_state, pair_weight=pair_weight, motion=motion,
                            reach=reach)

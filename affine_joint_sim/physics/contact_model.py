@@ -4,11 +4,12 @@ fields of physics.fields under ``has_contact``), and the refusal of a scene whos
 already touches (docs/physics.md#contact).
 
 A contact point is a rest point x̄ of a free body (COM-centred body frame) with a radius r: a
-box's corners (r = 0), a sphere's centre, a capsule's two sphere centres, a mesh's vertices
-(``mesh_points``). Its distance to the half-space n·x ≥ h is n·(p + A x̄) − h − r, exact for
-these (a box or a mesh touches a plane first at a corner). A cylinder touches as its two rims,
-``CYLINDER_RIM_POINTS`` points each: exact standing on an end face or tipped onto a rim, and
-up to r (1 − cos(π/16)) = 1.9 % of its radius low between two points lying on its side.
+box's corners (r = 0), a sphere's centre, a capsule's two sphere centres, the corners of a
+mesh's convex hull (``mesh_hull``). Its distance to the half-space n·x ≥ h is
+n·(p + A x̄) − h − r, exact for these (a box or a hull touches a plane first at a corner). A
+cylinder touches as its two rims, ``CYLINDER_RIM_POINTS`` points each: exact standing on an end
+face or tipped onto a rim, and up to r (1 − cos(π/16)) = 1.9 % of its radius low between two
+points lying on its side.
 """
 
 import warnings
@@ -17,8 +18,8 @@ import numpy as np
 
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
-from affine_joint_sim.physics.mesh_points import mesh_points
-from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap
+from affine_joint_sim.physics.mesh_hull import mesh_hull
+from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, touch_first
 from affine_joint_sim.physics.primitives import Surface, moving_surface, static_surfaces
 from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_separation, static_shapes
 from affine_joint_sim.rotations import rpy_matrix
@@ -43,8 +44,9 @@ def _shape_collision(shape) -> Collision:
                                'length': shape.cylinder.length})
 
 
-def _points(geometry: Collision, where: str) -> list[tuple[np.ndarray, float]]:
-    """(x̄, r) of one geometry's contact points in the body frame."""
+def _points(geometry: Collision, hull) -> list[tuple[np.ndarray, float]]:
+    """(x̄, r) of one geometry's contact points in the body frame (a mesh: its ``hull``'s
+    corners)."""
     rotation = rpy_matrix(*geometry.origin.rpy)
     origin = np.array(geometry.origin.xyz, dtype=np.float64)
     radius = 0.0
@@ -62,8 +64,7 @@ def _points(geometry: Collision, where: str) -> list[tuple[np.ndarray, float]]:
         local = [np.array([r * pm.cos(a), r * pm.sin(a), z]) for z in (-half, half)
                  for a in turns]
     else:
-        mesh = geometry.mesh
-        local = list(mesh_points(mesh.path or mesh.uri, mesh.scale, where))
+        local = list(hull.vertices)
     return [(origin + pm.matmul(rotation, x), float(radius)) for x in local]
 
 
@@ -134,12 +135,15 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
         for k, geometry in enumerate(_geometries(body)):
             where = f'body {body.name!r} (bodies[{b}].collision' + (
                 ')' if body.collision == 'shape' else f'[{k}])')
-            for rest, radius in _points(geometry, where):
+            hull = None if geometry.kind != 'mesh' else mesh_hull(
+                geometry.mesh.path or geometry.mesh.uri, geometry.mesh.scale, where,
+                settings.mesh_tolerance)
+            for rest, radius in _points(geometry, hull):
                 bodies.append(b)
                 rests.append(rest)
                 radii.append(radius)
             if len(owners) or touch:    # edges and faces: static shapes, other bodies
-                moving.add(b, moving_surface(geometry, where), static=True)
+                moving.add(b, moving_surface(geometry, hull), static=True)
             if touch and geometry.kind == 'sphere':     # its centre, for other bodies only
                 moving.add(b, Surface([geometry.origin.xyz], [(0, 0)],
                                       radius=geometry.sphere.radius), static=False)
@@ -183,6 +187,7 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
                   touch_b=np.array([b for _, b in touch], dtype=np.int32), touch_slot=slot,
                   body_friction=np.array([[combined_friction(ma, mb) for mb in body_mu]
                                           for ma in body_mu], dtype=np.float64).reshape(n, n))
+    arrays['touch_first'] = touch_first(arrays)
     names += shape_names + [scene.bodies[f].name for f in fixed.edge_owner + fixed.vertex_owner]
     refuse_touching(scene, q0, arrays, names)
     return arrays, names

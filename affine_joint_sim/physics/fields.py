@@ -9,10 +9,11 @@ vertices and sphere centres), ``plane`` (static half-spaces), ``shape`` (fixed b
 collision geometries: static boxes, spheres, capsules, cylinders, triangles), ``edge`` and
 ``face`` (moving bodies' edges and triangles, each body's consecutive), ``static_edge`` and
 ``static_vertex`` (the static shapes' edges and corners), ``touch`` (pairs of free bodies that
-may touch each other), ``body_end`` (one more than ``body``), ``static_pair`` (point × static
-thing: the planes, then the shapes; then edge × static edge; then face × static vertex),
-``pair`` (the static pairs, then point × face of another body, then edge × edge of two bodies)
-and ``near`` (twice the pairs);
+may touch each other), ``body_end`` and ``touch_end`` (one more than ``body``, ``touch``),
+``static_pair`` (point × static thing: the planes, then the shapes; then edge × static edge;
+then face × static vertex), ``pair`` (the static pairs, then those of each pair of bodies that
+may touch: its points against the other's faces both ways, then its edges against the
+other's) and ``near`` (twice the pairs);
 ``()`` is a plain struct member, not an array. Frames: world, SI units.
 """
 
@@ -168,6 +169,10 @@ FIELDS = _fields('model', [
     ('touch_a', 'int32', ('touch',), '-', 'first body of each pair of free bodies that may '
      'touch each other (touch_a < touch_b)'),
     ('touch_b', 'int32', ('touch',), '-', 'its second body'),
+    ('touch_first', 'int32', ('touch_end',), '-', 'where each touch pair\'s pairs start after '
+     'the static pairs: the points of touch_a against the faces of touch_b, those of touch_b '
+     'against the faces of touch_a, then the edges of touch_a against those of touch_b, row '
+     'by row; then their end'),
     ('touch_slot', 'int32', ('body', 'body'), '-', 'the touch pair of bodies a and b (either '
      'order), -1 if they never touch'),
     ('body_friction', 'scalar', ('body', 'body'), '-', 'Coulomb μ between two bodies'),
@@ -231,10 +236,17 @@ FIELDS = _fields('model', [
      '(zero between steps)'),
     ('point_world', 'vec3', ('env', 'point'), 'm', 'each contact point at q_n, for the broad '
      'phase of pairs of bodies'),
+    ('point_size', 'scalar', ('env', 'point'), 'm', 'its radius, beside it'),
     ('edge_centre', 'vec3', ('env', 'edge'), 'm', 'each moving edge\'s midpoint at q_n'),
     ('edge_size', 'scalar', ('env', 'edge'), 'm', 'its half length plus radius'),
     ('face_centre', 'vec3', ('env', 'face'), 'm', 'each moving face\'s centroid at q_n'),
     ('face_size', 'scalar', ('env', 'face'), 'm', 'its farthest corner from the centroid'),
+    ('slab_faces', 'int32', ('env', 'face'), '-', 'the faces of one body near another\'s slab, '
+     'while their pairs are gathered'),
+    ('slab_edges', 'int32', ('env', 'edge'), '-', 'likewise its edges'),
+    ('body_low', 'vec3', EB, 'm', 'the least height of a body\'s contact points and edge balls '
+     'at q_n along each of its own axes (A\'s columns normalized)'),
+    ('body_high', 'vec3', EB, 'm', 'likewise the greatest'),
     ('contact_block', 'mat12', ('env', 'touch'), 'kg', 'the Hessian block H[touch_a, touch_b] '
      'of the contact between two bodies this iterate'),
     ('block_used', 'int32', ('env', 'touch'), '-', '1 if contact_block holds a block this '
@@ -321,7 +333,8 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
             'joint': host.joint_count, 'point': len(host.point_body),
             'plane': len(host.plane_offset), 'shape': len(host.shape_kind),
             'static_pair': len(host.pair_friction), 'pair': host.pair_count,
-            'touch': len(host.touch_a), 'body_end': host.body_count + 1,
+            'touch': len(host.touch_a), 'touch_end': len(host.touch_a) + 1,
+            'body_end': host.body_count + 1,
             'edge': len(host.edge_body),
             'face': len(host.face_body), 'static_edge': len(host.static_edge_a),
             'static_vertex': len(host.static_vertex),

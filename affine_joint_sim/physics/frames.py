@@ -7,9 +7,11 @@ offset ``offset[i]`` in the body's rest frame; its pose is in the world, or, whe
 ``parent[i]`` (/tf's parent link). Its world pose uses the rotation R nearest to the body's A
 (the polar decomposition's, R = U Vᵀ of A = U Σ Vᵀ; for the nearly rigid A of a running
 simulation three Newton–Schulz steps R ← R (3 − RᵀR) / 2 reach it to rounding at a fraction of
-an SVD's cost, an SVD is taken when ‖AᵀA − I‖_F ≥ 0.1): position p + R·offset, orientation
-R·rotation as a unit quaternion (x, y, z, w) with w ≥ 0 and as a rotation matrix (row-major)
-after it (relative to a parent frame F: Fᵀ(p − p_F), Fᵀ R·rotation).
+an SVD's cost, an SVD is taken when ‖AᵀA − I‖_F ≥ 0.1): position p + R·offset and orientation
+R·rotation (relative to a parent frame F: Fᵀ(p − p_F), Fᵀ R·rotation). A frame's row holds the
+position, the orientation as a unit quaternion (x, y, z, w) with w ≥ 0, then the same pose as
+the rigid 4×4 transform [[rotation, position], [0 0 0 1]], row-major, which
+``Stepper.link_transforms`` copies out as it is.
 Built per precision, in a Warp module of its own (only scenes that are viewed or whose links
 are read compile it).
 """
@@ -21,7 +23,7 @@ import warp as wp
 __all__ = ['build', 'FRAME_COLUMNS', 'POSE_COLUMNS']
 
 POSE_COLUMNS = 7            # x y z, qx qy qz qw
-FRAME_COLUMNS = 16          # and the rotation's r00 r01 r02 r10 ... r22
+FRAME_COLUMNS = 23          # and the 4×4 transform's t00 t01 t02 t03 t10 ... t33
 
 
 def build(t) -> SimpleNamespace:
@@ -107,6 +109,9 @@ def build(t) -> SimpleNamespace:
         out[i, 6] = wp.float64(w)
         for row in range(3):
             for column in range(3):
-                out[i, 7 + 3 * row + column] = wp.float64(turn[row, column])
+                out[i, 7 + 4 * row + column] = wp.float64(turn[row, column])
+            out[i, 7 + 4 * row + 3] = wp.float64(p[row])
+            out[i, 7 + 12 + row] = wp.float64(0.0)
+        out[i, 7 + 15] = wp.float64(1.0)
 
     return SimpleNamespace(frame_poses=frame_poses)

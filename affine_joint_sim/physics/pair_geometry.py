@@ -3,8 +3,8 @@ points as the kernel's ``contact.pair_gap`` computes them (refusing a touching s
 ``Stepper.energy``, ``Stepper.contacts``; the last bits may differ from the kernel's).
 
 Pairs are numbered as in the model (physics.fields ``pair``): point × static thing, then
-moving edge × static edge, then moving face × static vertex (the static pairs), then a point
-× a face of another body, then an edge × an edge of another body (pairs of bodies).
+moving edge × static edge, then moving face × static vertex (the static pairs), then the pairs
+of bodies that may touch (``touch_blocks``).
 """
 
 import math
@@ -14,8 +14,8 @@ import numpy as np
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_separation, triangle_weights
 
-__all__ = ['Gap', 'near_pairs', 'pair_gap', 'pair_total', 'pair_weight', 'pair_distances',
-           'point_distances', 'segment_params']
+__all__ = ['Gap', 'body_pair', 'near_pairs', 'pair_gap', 'pair_total', 'pair_weight',
+           'pair_distances', 'point_distances', 'segment_params', 'touch_blocks', 'touch_first']
 
 
 class Gap:
@@ -76,18 +76,50 @@ def _unit(gap) -> tuple[float, np.ndarray]:
 
 
 def pair_total(model) -> int:
-    """How many pairs ``model`` (a dict of its fields) numbers: the static ones, then point ×
-    face and edge × edge of every two moving primitives (only those of bodies that may touch
-    each other are ever evaluated)."""
-    return (len(model['pair_on']) + len(model['point_body']) * len(model['face_body'])
-            + len(model['edge_body']) ** 2)
+    """How many pairs ``model`` (a dict of its fields) numbers: the static ones, then those of
+    the pairs of bodies that may touch each other."""
+    return len(model['pair_on']) + int(model['touch_first'][-1])
+
+
+def touch_blocks(model, j: int) -> list[tuple[int, range, range]]:
+    """The pairs of the j-th pair of bodies (touch_a, touch_b) = (a, b) that may touch, as
+    three blocks (family: 0 a point against a face, 1 an edge against an edge; the first
+    sides; the other sides), each numbered row by row: the points of a against the faces of
+    b, the points of b against the faces of a, the edges of a against the edges of b."""
+    a, b = int(model['touch_a'][j]), int(model['touch_b'][j])
+
+    def of(kind, body):
+        first = model[f'body_first_{kind}']
+        return range(int(first[body]), int(first[body + 1]))
+    return [(0, of('point', a), of('face', b)), (0, of('point', b), of('face', a)),
+            (1, of('edge', a), of('edge', b))]
+
+
+def touch_first(model) -> np.ndarray:
+    """Where each pair of bodies' pairs start after the static ones, and their end (touch
+    + 1,): the model field ``touch_first`` of a dict of the other fields."""
+    sizes = [sum(len(first) * len(other) for _, first, other in touch_blocks(model, j))
+             for j in range(len(model['touch_a']))]
+    return np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)]).astype(np.int32)
+
+
+def body_pair(model, k: int) -> tuple[int, int, int]:
+    """(family: 0 a point against a face, 1 an edge against an edge; the first side's point
+    or edge; the other side's face or edge) of the k-th pair of bodies (``touch_blocks``)."""
+    j = int(np.searchsorted(model['touch_first'], k, side='right')) - 1
+    k -= int(model['touch_first'][j])
+    for family, first, other in touch_blocks(model, j):
+        if k < len(first) * len(other):
+            row, column = divmod(k, len(other))
+            return family, first[row], other[column]
+        k -= len(first) * len(other)
+    raise IndexError(f'pair of bodies {k} is not numbered')
 
 
 def _body_gap(model, q, k: int) -> Gap:
-    """Pair ``k`` of the pairs of bodies: point × face, then edge × edge."""
-    faces = len(model['face_body'])
-    if k < len(model['point_body']) * faces:
-        i, f = divmod(k, faces)
+    """The k-th pair of bodies (``body_pair``)."""
+    family, i, f = body_pair(model, k)
+    if family == 0:
         body, other = model['point_body'][i], model['face_body'][f]
         rest, radius = model['point_rest'][i], model['point_radius'][i]
         corners = np.asarray(model['face_rest'][f]).T
@@ -98,7 +130,7 @@ def _body_gap(model, q, k: int) -> Gap:
         length, normal = _unit(x - nearest)
         return Gap(body, length - radius, normal, rest, radius, nearest, None, other,
                    other_rest)
-    e, s = divmod(k - len(model['point_body']) * faces, len(model['edge_body']))
+    e, s = i, f
     body, other = model['edge_body'][e], model['edge_body'][s]
     ea, eb, sa, sb = (model[end][j] for end, j in (('edge_a', e), ('edge_b', e),
                                                     ('edge_a', s), ('edge_b', s)))
@@ -159,13 +191,12 @@ def pair_weight(model, q_n, p: int) -> float:
     near-parallel mollifier for an edge pair (the kernel's ``pair_weight``), else 1."""
     things, points, edges = _families(model)
     statics = len(model['pair_on'])
-    body_edges = statics + len(model['point_body']) * len(model['face_body'])
+    family, e, s = body_pair(model, p - statics) if p >= statics else (0, 0, 0)
     if points <= p < points + edges:
         e, s = divmod(p - points, len(model['static_edge_a']))
         other = model['static_edge_b'][s] - model['static_edge_a'][s]
         other_world = other
-    elif p >= body_edges:
-        e, s = divmod(p - body_edges, len(model['edge_body']))
+    elif family == 1:
         other = model['edge_b'][s] - model['edge_a'][s]
         other_world = pm.matmul(q_n[model['edge_body'][s], 3:].reshape(3, 3), other)
     else:
@@ -192,21 +223,22 @@ def near_pairs(model, q, reach: float) -> np.ndarray:
     shape, of two segments, of a triangle and a vertex or a point)."""
     near = np.concatenate([_near_points(model, q, reach), _near_edges(model, q, reach),
                            _near_faces(model, q, reach)]) & (np.asarray(model['pair_on']) != 0)
-    touch = np.asarray(model['touch_slot']) >= 0
-    points, faces = _moved(q, model['point_body'], np.asarray(model['point_rest'])[:, None]), \
-        _moved(q, model['face_body'], np.transpose(model['face_rest'], (0, 2, 1)))
-    point_balls = points[:, 0], np.asarray(model['point_radius'])
-    face_centre, face_reach = _ball(faces)
-    body_pf = (_apart(point_balls, (face_centre, face_reach)) < reach) & touch[np.ix_(
-        model['point_body'], model['face_body'])]
-    edges = _moved(q, model['edge_body'], np.stack([model['edge_a'], model['edge_b']], axis=1))
-    centre, size = _ball(edges)
-    balls = centre, size + model['edge_radius']
-    body_ee = (_apart(balls, balls) < reach) & touch[np.ix_(model['edge_body'],
-                                                            model['edge_body'])]
-    body_ee &= np.arange(len(centre))[:, None] < np.arange(len(centre))[None]
-    near = np.concatenate([near, body_pf.reshape(-1), body_ee.reshape(-1)])
-    return np.flatnonzero(near)
+    points = _moved(q, model['point_body'], np.asarray(model['point_rest'])[:, None])[:, 0]
+    faces = _ball(_moved(q, model['face_body'], np.transpose(model['face_rest'], (0, 2, 1))))
+    centre, size = _ball(_moved(q, model['edge_body'],
+                                np.stack([model['edge_a'], model['edge_b']], axis=1)))
+    edges = centre, size + model['edge_radius']
+    balls = {0: ((points, np.asarray(model['point_radius'])), faces), 1: (edges, edges)}
+    listed = [np.flatnonzero(near)]
+    for j in range(len(model['touch_a'])):
+        base = len(near) + int(model['touch_first'][j])
+        for family, first, other in touch_blocks(model, j):
+            mine, theirs = balls[family]
+            close = _apart(tuple(x[first.start:first.stop] for x in mine),
+                           tuple(x[other.start:other.stop] for x in theirs)) < reach
+            listed.append(base + np.flatnonzero(close))
+            base += len(first) * len(other)
+    return np.concatenate(listed)
 
 
 def _apart(first, second) -> np.ndarray:

@@ -10,22 +10,19 @@ cylinder's caps and sides, a mesh's); the static world has **static edges** (a b
 capsule's axis and a sphere's centre as a zero-length edge with their radius, a cylinder's
 rims and sides, each mesh edge once) and **static vertices** (corners, a sphere's centre and a
 capsule's two with their radius, each mesh vertex once). A sphere moving is exact with its
-centre alone, so it has neither. A moving mesh touches with at most ``MAX_MOVING_TRIANGLES``
-triangles (vertex clustering beyond).
+centre alone, so it has neither. A moving mesh touches as its convex hull (``mesh_hull``).
 """
 
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.mesh_points import mesh_triangles
 from affine_joint_sim.physics.static_shapes import SHAPE_KINDS
 from affine_joint_sim.rotations import rpy_matrix
 
-__all__ = ['CYLINDER_SEGMENTS', 'MAX_MOVING_TRIANGLES', 'Surface', 'box_surface',
+__all__ = ['CYLINDER_SEGMENTS', 'Surface', 'box_surface',
            'cylinder_surface', 'moving_surface', 'static_surfaces']
 
 CYLINDER_SEGMENTS = 16
-MAX_MOVING_TRIANGLES = 64
 
 
 class Surface:
@@ -86,9 +83,10 @@ def _mesh_surface(triangles: np.ndarray) -> Surface:
     return Surface(vertices, edges, faces)
 
 
-def moving_surface(geometry, where: str) -> Surface:
+def moving_surface(geometry, hull=None) -> Surface:
     """The edges and faces a moving body's collision ``geometry`` touches static geometry
-    with, in the body frame (a sphere: none; its centre is exact)."""
+    with, in the body frame (a sphere: none; its centre is exact); a mesh's are those of its
+    ``hull`` (``mesh_hull.Hull``)."""
     kind = geometry.kind
     if kind == 'box':
         local = box_surface([0.5 * side for side in geometry.box])
@@ -99,9 +97,7 @@ def moving_surface(geometry, where: str) -> Surface:
     elif kind == 'cylinder':
         local = cylinder_surface(geometry.cylinder.radius, 0.5 * geometry.cylinder.length)
     elif kind == 'mesh':
-        mesh = geometry.mesh
-        local = _mesh_surface(mesh_triangles(mesh.path or mesh.uri, mesh.scale, where,
-                                             MAX_MOVING_TRIANGLES))
+        local = _mesh_surface(hull.vertices[hull.faces])
     else:
         return Surface([])
     return local.placed(rpy_matrix(*geometry.origin.rpy), geometry.origin.xyz)

@@ -14,7 +14,7 @@ Which points may touch which shape follows the articulations (``Scene.articulati
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.mesh_points import mesh_triangles
+from affine_joint_sim.physics.static_mesh import mesh_triangles
 from affine_joint_sim.rotations import rpy_matrix
 
 __all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_separation', 'shape_distance',

@@ -22,9 +22,12 @@ class PatchedMessage:
         msg: the message, complete but for the fields below.
         floats: (object, attribute) of every float64 field to write, in update order.
         headers: std_msgs/Header objects whose stamps are written on every update.
+        parts: sizes that split ``floats`` into consecutive parts, each updated from an array
+            of its own (a sensor's orientation, angular velocity, ...: no array of them all
+            is made); None: one part, every value in one array.
     """
 
-    def __init__(self, msg, floats: list, headers: list):
+    def __init__(self, msg, floats: list, headers: list, parts: list[int] | None = None):
         for i, (obj, attr) in enumerate(floats):
             setattr(obj, attr, _float_sentinel(i))
         for i, header in enumerate(headers):
@@ -38,14 +41,19 @@ class PatchedMessage:
         self.buffer = bytearray(raw)
         # Typed views of the buffer at the fields' alignment (CDR aligns a field to its size
         # from a fixed origin, so all float64 fields share one phase mod 8, all int32 one mod 4)
-        self._floats, self._float_index = _view(self.buffer, float_at, '<f8')
+        self._floats, float_index = _view(self.buffer, float_at, '<f8')
+        self._parts = parts is not None
+        self._float_indices = np.split(float_index, np.cumsum(parts)[:-1]) if self._parts \
+            else [float_index]
         self._secs, self._sec_index = _view(self.buffer, sec_at, '<i4')
         self._nsecs, self._nsec_index = _view(self.buffer, nsec_at, '<u4')
 
-    def update(self, values: np.ndarray, stamp_ns: int) -> bytes:
-        """Write ``values`` (float64, in the order of ``floats``) and the stamp [ns]; returns
-        the serialized message."""
-        self._floats[self._float_index] = np.ravel(values)
+    def update(self, values, stamp_ns: int) -> bytes:
+        """Write ``values`` (float64, in the order of ``floats``: one array, or with ``parts``
+        a sequence of one array per part) and the stamp [ns]; returns the serialized
+        message."""
+        for index, part in zip(self._float_indices, values if self._parts else [np.ravel(values)]):
+            self._floats[index] = part
         sec, nsec = divmod(int(stamp_ns), 1_000_000_000)
         self._secs[self._sec_index] = sec
         self._nsecs[self._nsec_index] = nsec

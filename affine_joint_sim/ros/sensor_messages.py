@@ -16,6 +16,7 @@ import numpy as np
 
 from affine_joint_sim.ros.patched import PatchedMessage
 from affine_joint_sim.ros.topics import SENSOR_KEYS
+from affine_joint_sim.sensors import FIELDS
 
 __all__ = ['SensorMessages', 'message_values', 'sensor_values', 'difference']
 
@@ -23,10 +24,8 @@ __all__ = ['SensorMessages', 'message_values', 'sensor_values', 'difference']
 def sensor_values(kind: str, reading: dict) -> np.ndarray:
     """A sensor's reading (``Stepper.sensors[name]``) as one flat vector: an imu's orientation
     (x, y, z, w), angular velocity and linear acceleration; a contact sensor's force and
-    torque."""
-    keys = ('orientation', 'angular_velocity', 'linear_acceleration') if kind == 'imu' else (
-        'force', 'torque')
-    return np.concatenate([np.asarray(reading[key], dtype=np.float64) for key in keys])
+    torque (FIELDS order)."""
+    return np.concatenate([reading[key] for key in FIELDS[kind]], dtype=np.float64)
 
 
 def message_values(kind: str, msg) -> np.ndarray:
@@ -60,17 +59,16 @@ class SensorMessages:
 
     def __init__(self, scene, topics):
         self.sensors = [(s.name, s.type, SENSOR_KEYS[s.type]) for s in scene.sensors]
-        self._msgs = {}
+        self._msgs = []         # (name, its values (FIELDS), its PatchedMessage) per sensor
         for sensor, (name, kind, key) in zip(scene.sensors, self.sensors):
             msg = topics[key].msg_class()
             msg.header.frame_id = sensor.body
-            if kind == 'imu':
-                vectors = [(msg.orientation, 'xyzw'), (msg.angular_velocity, 'xyz'),
-                           (msg.linear_acceleration, 'xyz')]
-            else:
-                vectors = [(msg.wrench.force, 'xyz'), (msg.wrench.torque, 'xyz')]
-            floats = [(vector, axis) for vector, axes in vectors for axis in axes]
-            self._msgs[name] = PatchedMessage(msg, floats, [msg.header])
+            # each value is the message field of its name (an Imu's, a WrenchStamped's wrench's)
+            holder = msg if kind == 'imu' else msg.wrench
+            floats = [(getattr(holder, value), axis) for value, size in FIELDS[kind].items()
+                      for axis in 'xyzw'[:size]]
+            self._msgs.append((name, FIELDS[kind], PatchedMessage(
+                msg, floats, [msg.header], parts=list(FIELDS[kind].values()))))
 
     def __bool__(self) -> bool:
         return bool(self.sensors)
@@ -78,5 +76,5 @@ class SensorMessages:
     def fill(self, readings: dict, stamp_ns: int) -> list[tuple[str, bytes]]:
         """(sensor name, its serialized message) of every sensor for ``readings``
         (``Stepper.sensors``) at stamp ``stamp_ns`` [ns]."""
-        return [(name, self._msgs[name].update(sensor_values(kind, readings[name]), stamp_ns))
-                for name, kind, _ in self.sensors]
+        return [(name, msg.update([readings[name][key] for key in fields], stamp_ns))
+                for name, fields, msg in self._msgs]
