@@ -28,7 +28,7 @@ from affine_joint_sim.physics.frames import FRAME_COLUMNS, POSE_COLUMNS
 from affine_joint_sim.physics.report import REPORT_COLUMNS, REPORT_ROOM
 from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import (frame_kernel, report_kernel, scalar_of,
-                                              step_kernels)
+                                              sensor_kernel, step_kernels)
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
 from affine_joint_sim.physics.contact_model import refuse_touching
 from affine_joint_sim.physics.model import build_model, largest_step_efforts
@@ -149,6 +149,7 @@ class Stepper:
         self._stat_layout = _stat_layout(self._host)
         self._link_read = None          # link_transforms' replay, captured on its first read
         self._report = None             # contacts' replay, captured on its first read
+        self._sensor_read = None        # sensors' replay, captured on their first read
         self._pair_name_cache = {}
         # the scene's sensors (README.md#sensors); None without any: nothing to pay for
         self._sensors = SensorSet(scene) if scene.sensors else None
@@ -598,16 +599,29 @@ class Stepper:
         sensors = self._sensors
         if sensors is None:
             return {}
-        v = v_prev = contacts = None
-        if sensors.imu:
-            v, v_prev = self._read('v'), self._read('v_prev')
-        if sensors.contact:
-            contacts = self.contacts if self._batched else [self.contacts]
-        values = sensors.read(self._read('q'), v, v_prev, self._steps == 0, contacts)
+        if self._sensor_read is None:
+            self._sensor_read = self._capture_sensors(sensors)
+        values = sensors.readings(self._sensor_read()[0].copy())
         if not self._batched:
             values = {name: {key: array[0] for key, array in reading.items()}
                       for name, reading in values.items()}
         return values
+
+    def _capture_sensors(self, sensors: SensorSet):
+        """The sensor kernel's replay over every environment (``sensors`` its SensorSet): a
+        function returning [its rows (envs, sensors.columns) float64], valid until the next
+        call."""
+        k, dev, mounts = self._k, self.device, sensors.mounts
+        contact = bool(sensors.contact) and self._host.has_contact
+        inputs = [wp.array(mounts.kind, dtype=int, device=dev),
+                  wp.array(mounts.body, dtype=int, device=dev),
+                  wp.array(mounts.rotation.astype(k.numpy_scalar), dtype=k.mat33, device=dev),
+                  wp.array(mounts.offset.astype(k.numpy_scalar), dtype=k.vec3, device=dev),
+                  wp.array(mounts.column, dtype=int, device=dev)]
+        out = wp.zeros((self._envs, sensors.columns), dtype=wp.float64, device=dev)
+        return self._replay(sensor_kernel(k.scalar, self._host.has_body_pairs, contact),
+                            self._envs, [self._model, self._state, self._scratch, *inputs],
+                            [out])
 
     @property
     def energy(self) -> np.ndarray | float:

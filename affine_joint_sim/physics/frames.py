@@ -114,4 +114,4 @@ def build(t) -> SimpleNamespace:
             out[i, 7 + 12 + row] = wp.float64(0.0)
         out[i, 7 + 15] = wp.float64(1.0)
 
-    return SimpleNamespace(frame_poses=frame_poses)
+    return SimpleNamespace(frame_poses=frame_poses, rigid=rigid, quaternion=quaternion)

@@ -17,11 +17,11 @@ import warp as wp
 from affine_joint_sim.physics import (affine, assemble, commands, commit, contact,
                                       contact_geometry, coupled_solve, frames, joint_terms,
                                       joints, kernel_math, newton, ortho, potential, prediction,
-                                      report, step, tree_solve)
+                                      report, sensing, step, tree_solve)
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.precision import types_for
 
-__all__ = ['step_kernels', 'scalar_of', 'frame_kernel', 'report_kernel']
+__all__ = ['step_kernels', 'scalar_of', 'frame_kernel', 'report_kernel', 'sensor_kernel']
 
 _STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands,
            contact_geometry, contact, coupled_solve, potential, assemble, prediction, newton,
@@ -29,6 +29,7 @@ _STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands
 _BUILT = {}
 _FRAMES = {}
 _REPORTS = {}
+_SENSORS = {}
 
 
 def step_kernels(scalar, bodies: bool = False) -> SimpleNamespace:
@@ -54,15 +55,37 @@ def scalar_of(precision: str):
 
 def frame_kernel(scalar):
     """The frame-pose kernel of ``physics.frames`` for ``scalar`` (built on first use)."""
+    return _frames(scalar).frame_poses
+
+
+def _frames(scalar):
+    """``physics.frames``'s namespace for ``scalar`` (built once)."""
     if scalar not in _FRAMES:
-        _FRAMES[scalar] = frames.build(step_kernels(scalar)).frame_poses
+        _FRAMES[scalar] = frames.build(step_kernels(scalar))
     return _FRAMES[scalar]
 
 
 def report_kernel(scalar, bodies: bool = False):
     """The contact report kernel of ``physics.report`` for ``scalar`` and the pipeline with
     or without pairs of bodies (built on first use)."""
+    return _report(scalar, bodies).contact_report
+
+
+def _report(scalar, bodies: bool):
+    """``physics.report``'s namespace for ``scalar`` and the pair kind (built once)."""
     key = (scalar, bool(bodies))
     if key not in _REPORTS:
-        _REPORTS[key] = report.build(step_kernels(scalar, bodies)).contact_report
+        _REPORTS[key] = report.build(step_kernels(scalar, bodies))
     return _REPORTS[key]
+
+
+def sensor_kernel(scalar, bodies: bool = False, contact: bool = False):
+    """The sensor kernel of ``physics.sensing`` for ``scalar`` and the pipeline with or
+    without pairs of bodies (its structs), with the contact sensors' code where ``contact``
+    (built on first use)."""
+    key = (scalar, bool(bodies), bool(contact))
+    if key not in _SENSORS:
+        _SENSORS[key] = sensing.build(step_kernels(scalar, bodies), _frames(scalar),
+                                      _report(scalar, bodies).pair_contact if contact
+                                      else None).sensor_readings
+    return _SENSORS[key]

@@ -68,6 +68,24 @@ def build(t) -> SimpleNamespace:
                      * (u1 * t1 + u2 * wp.cross(n_n, t1)))
         return force
 
+    @wp.func
+    def pair_contact(model: Model, state: State, scratch: Scratch, env: int, p: int):
+        """(active, body, other, d [m], n, point [m, world], normal force [N], friction
+        force [N, world, on ``body``]) of listed pair p at state.q; ``body``, ``other`` as
+        ``pair_bodies`` gives them. An inactive pair's forces are 0."""
+        body, other = pair_bodies(model, p)
+        d, n, rest, radius, rest_o, radius_o = gap_at(model, state.q, env, p)
+        lagged = scratch.friction_normal[env, p] > zero
+        active = d > zero and (d < model.contact_d_hat or lagged)
+        point = world_point(state.q[env, body], rest) - (radius + d) * n
+        push = zero
+        if active and d < model.contact_d_hat:
+            push = normal_force(model, state, scratch, env, p, d)
+        friction = vec3()
+        if active and lagged:
+            friction = friction_force(model, state, scratch, env, p)
+        return active, body, other, d, n, point, push, friction
+
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def contact_report(model: Model, state: State, scratch: Scratch,
                        counts: wp.array(dtype=int), pairs: wp.array2d(dtype=int),
@@ -76,18 +94,10 @@ def build(t) -> SimpleNamespace:
         found = int(0)
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            d, n, rest, radius, rest_o, radius_o = gap_at(model, state.q, env, p)
-            lagged = scratch.friction_normal[env, p] > zero
-            if d > zero and (d < model.contact_d_hat or lagged):
+            active, body, other, d, n, point, push, friction = pair_contact(
+                model, state, scratch, env, p)
+            if active:
                 if found < pairs.shape[1]:
-                    body, other = pair_bodies(model, p)
-                    point = world_point(state.q[env, body], rest) - (radius + d) * n
-                    push = zero
-                    if d < model.contact_d_hat:
-                        push = normal_force(model, state, scratch, env, p, d)
-                    friction = vec3()
-                    if lagged:
-                        friction = friction_force(model, state, scratch, env, p)
                     pairs[env, found] = p
                     rows[env, found, 0] = wp.float64(d)
                     for i in range(3):
@@ -98,4 +108,4 @@ def build(t) -> SimpleNamespace:
                 found += 1
         counts[env] = found
 
-    return SimpleNamespace(contact_report=contact_report)
+    return SimpleNamespace(contact_report=contact_report, pair_contact=pair_contact)
