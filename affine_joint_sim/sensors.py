@@ -27,15 +27,15 @@ import warnings
 
 import numpy as np
 
-from affine_joint_sim.physics.sensing import CONTACT, IMU
 from affine_joint_sim.rotations import rotation_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning
 
-__all__ = ['FIELDS', 'SensorSet']
+__all__ = ['FIELDS', 'IMU', 'CONTACT', 'SensorSet']
 
 # The values of each type of sensor, with their sizes (Stepper.sensors keys)
 FIELDS = {'imu': {'orientation': 4, 'angular_velocity': 3, 'linear_acceleration': 3},
           'contact': {'force': 3, 'torque': 3}}
+IMU, CONTACT = 0, 1         # a sensor's kind in the sensor kernel (physics.sensing)
 _KINDS = {'imu': IMU, 'contact': CONTACT}
 
 

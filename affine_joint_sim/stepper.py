@@ -133,7 +133,8 @@ class Stepper:
             weakref.finalize(self, self._pool.shutdown, wait=False)
         with summarised(f'scene {scene.name!r}'):     # one line for its meshes reduced
             self._host = build_model(scene)
-        self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs)
+        self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs,
+                               cuda=self.device.is_cuda, contact=bool(self._host.has_contact))
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
         # a joint's index by name, and the joints that take a command: a control loop sets
         # torques by name every step, so these are looked up, not searched

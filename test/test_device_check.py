@@ -43,13 +43,13 @@ def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, cap
             assert 0.0 < error < (0.1 if row[0] == 'arm' else 1e-3)
 
 
-def test_the_registered_modules_are_exactly_the_ones_a_run_loads():
+def test_a_run_loads_only_registered_modules():
     code = '''
 import json, warp as wp
 from warp._src.context import user_modules
 from affine_joint_sim.bench import device_check
 wp.init()
-device_check.register()
+device_check.register(cuda=False)    # what a GPU run loads, built the same way on the CPU
 ids = lambda keep: sorted(m.get_module_identifier() for m in list(user_modules.values())
                           if m.kernels and not m.name.startswith('warp') and keep(m))
 registered = ids(lambda m: True)
@@ -59,7 +59,9 @@ print(json.dumps([registered, ids(lambda m: m.execs)]))
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True).stdout
     registered, loaded = json.loads(out.strip().splitlines()[-1])
-    assert len(registered) == 2 and registered == loaded
+    # every step kernel variant is registered (precisions × kinds of contact); the run's
+    # scenes, without contact, load the two without contact code, nothing not registered
+    assert len(registered) == 6 and len(loaded) == 2 and set(loaded) <= set(registered)
 
 
 def test_resources_reads_the_step_kernel_cubins_of_each_precision(tmp_path, capsys):
@@ -69,7 +71,8 @@ def test_resources_reads_the_step_kernel_cubins_of_each_precision(tmp_path, caps
     from test_cubin import doubled
 
     (cubin,) = wp.compile_aot_module(doubled.module, arch=90, module_dir=tmp_path / 'build')
-    folder = tmp_path / 'cache' / step_kernels(wp.float64).step.module.get_module_identifier()
+    module = step_kernels(wp.float64, cuda=True).step.module
+    folder = tmp_path / 'cache' / module.get_module_identifier()
     folder.mkdir(parents=True)
     (folder / cubin.name).write_bytes(cubin.read_bytes())    # stands in for the step kernel
     (row,) = device_check.resources(tmp_path / 'cache')

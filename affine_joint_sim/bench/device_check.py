@@ -3,9 +3,10 @@
 A lent GPU comes with minutes, not hours, and without a CPU compiler or a package index, so the
 work is split (``make gpu-prep`` does the first two steps):
 
-1. ``register()`` builds the step kernels of both precisions exactly as a Stepper does; the
-   workplace's gpu-prep hook then compiles them for sm_90 ahead of time (Warp module hashes
-   must match, or the device compiles again).
+1. ``register()`` builds every GPU step kernel variant (both precisions, each kind of contact:
+   ``VARIANTS``) exactly as a Stepper on a GPU does; the workplace's gpu-prep hook then
+   compiles them for sm_90 ahead of time (Warp module hashes must match, or the device
+   compiles again).
 2. ``reference OUT.npz`` (CPU) writes the CPU float64 joint trajectories of the scenes.
 3. ``run --reference OUT.npz`` (on the device) prints one markdown table: per scene and
    precision, the largest joint-coordinate difference from the CPU float64 run over
@@ -16,7 +17,8 @@ work is split (``make gpu-prep`` does the first two steps):
 
 ``resources [DIR]`` (CPU, after step 1) prints what each compiled step kernel needs per thread
 (``bench.cubin``): registers, stack frame in local memory, code size, and the warps per SM
-that its registers allow: the predictions to check a GPU run against.
+that its registers allow: the predictions to check a GPU run against. ``inlining`` (CPU, no
+compile) prints each variant's functions as NVVM compiles them (``bench.inlining``).
 
 Scenes (dt 0.01, BDF2): ``pendulum`` (one 1 kg 0.1×0.1×1 m link), ``chain6`` (six such links),
 2 N·m on every joint, and the packaged 6-joint ``arm`` (1 N·m on every joint).
@@ -55,14 +57,28 @@ COLUMNS = [Column('scene', 'scene'), Column('precision', 'precision'), Column('e
            Column('note', 'note')]
 
 
-def register() -> None:
-    """Build the step kernels of both precisions (the modules a Stepper loads)."""
+# The step kernel variants a Stepper may load (kernels.step_kernels), by the contact a scene
+# has: none, with the world only, or between moving bodies too
+VARIANTS = (('none', {'contact': False}), ('world', {'bodies': False}),
+            ('bodies', {'bodies': True}))
+
+
+def step_variants(cuda: bool = True):
+    """(precision, contact, the types namespace) of every step kernel variant a Stepper on a
+    GPU (``cuda``; else on the CPU) loads."""
     import warp as wp
 
     from affine_joint_sim.physics.kernels import step_kernels
 
-    for scalar in (wp.float64, wp.float32):
-        step_kernels(scalar)
+    for precision, scalar in (('float64', wp.float64), ('float32', wp.float32)):
+        for contact, kind in VARIANTS:
+            yield precision, contact, step_kernels(scalar, cuda=cuda, **kind)
+
+
+def register(cuda: bool = True) -> None:
+    """Build every step kernel a Stepper on a GPU (``cuda``; else on the CPU) loads."""
+    for _ in step_variants(cuda):
+        pass
 
 
 def scenes(precision: str) -> dict:
@@ -222,30 +238,48 @@ def warps_per_sm(registers: int) -> int:
 
 
 def resources(cache_dir) -> list[dict]:
-    """Per precision, the resources of the step kernel's cubins under ``cache_dir`` (Warp's
-    kernel cache layout: one folder per module identifier)."""
-    import warp as wp
-
+    """Per precision and pair kind, the resources of the GPU step kernel's cubins under
+    ``cache_dir`` (Warp's kernel cache layout: one folder per module identifier)."""
     from affine_joint_sim.bench.cubin import kernel_resources
-    from affine_joint_sim.physics.kernels import step_kernels
 
     rows = []
-    for precision, scalar in (('float64', wp.float64), ('float32', wp.float32)):
-        module = step_kernels(scalar).step.module.get_module_identifier()
-        for path in sorted(Path(cache_dir, module).glob('*.cubin')):
+    for precision, contact, t in step_variants():
+        folder = Path(cache_dir, t.step.module.get_module_identifier())
+        for path in sorted(folder.glob('*.cubin')):
             for kernel in kernel_resources(path):
                 warps = warps_per_sm(kernel.registers)
-                rows.append({'precision': precision, 'cubin': path.name,
+                rows.append({'precision': precision, 'contact': contact, 'cubin': path.name,
                              'registers': kernel.registers, 'stack': kernel.frame_bytes,
                              'code': kernel.code_bytes / 1024, 'warps': warps,
                              'stack_per_sm': warps * WARP * kernel.frame_bytes / 2 ** 20})
     return rows
 
 
-RESOURCE_COLUMNS = [Column('precision', 'precision'), Column('cubin', 'cubin'),
+RESOURCE_COLUMNS = [Column('precision', 'precision'), Column('contact', 'contact'),
+                    Column('cubin', 'cubin'),
                     Column('registers', 'registers'), Column('stack', 'stack B'),
                     Column('code', 'code KB', '{:.3g}'), Column('warps', 'warps/SM'),
                     Column('stack_per_sm', 'stack per SM MB', '{:.3g}')]
+
+
+def inlining() -> list[dict]:
+    """Per GPU step kernel variant, each function NVVM compiles on its own (bench.inlining):
+    its Python statements after inlining and the copies of the contact distance functions in
+    it."""
+    from affine_joint_sim.bench.inlining import compiled, copies_of
+
+    return [{'precision': precision, 'contact': contact,
+             'function': key.removeprefix('build__locals__'), 'statements': unit.statements,
+             **{name: copies_of(unit, name) for name in INLINED}}
+            for precision, contact, t in step_variants()
+            for key, unit in compiled(t.step).items()]
+
+
+INLINED = ('pair_gap', 'shape_separation', 'triangle_weights')   # counted in inlining()
+INLINING_COLUMNS = [Column('precision', 'precision'), Column('contact', 'contact'),
+                    Column('function', 'function'),
+                    Column('statements', 'statements inlined'),
+                    *(Column(name, f'copies of {name}') for name in INLINED)]
 
 
 def _resource_table(cache_dir) -> str:
@@ -261,6 +295,8 @@ def main(argv=None) -> int:
     ref.add_argument('out', type=Path)
     res = phases.add_parser('resources', help='registers, stack and code of the step kernels')
     res.add_argument('dir', type=Path, nargs='?', default=Path('.gpu-extra/kernels'))
+    phases.add_parser('inlining', help='the GPU step kernels with their calls inlined (no '
+                      'compile): statements and copies of the contact distance per function')
     run = phases.add_parser('run', help='every check on --device, one table')
     run.add_argument('--device', default='cuda')
     run.add_argument('--reference', type=Path, help='npz from the reference phase')
@@ -277,6 +313,9 @@ def main(argv=None) -> int:
         return 0
     if args.phase == 'resources':
         print(_resource_table(args.dir))
+        return 0
+    if args.phase == 'inlining':
+        print(markdown_table(inlining(), INLINING_COLUMNS))
         return 0
     import warp as wp
 

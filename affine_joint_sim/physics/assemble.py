@@ -141,11 +141,12 @@ def build(t) -> SimpleNamespace:
             if hessian != 0:
                 for j in range(model.touch_a.shape[0]):
                     scratch.block_used[env, j] = 0
-        if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed this step
-            # an active barrier's or friction's curvature changes fast: no last factors
-            untrusted += add_contact(model, q, scratch, env, hessian)
-            untrusted += add_friction(model, q, scratch, env, hessian)
-            add_damping(model, q, scratch, env, hessian)
+        if wp.static(t.contact):     # compiled in where the scene has contact
+            if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed
+                # an active barrier's or friction's curvature changes fast: no last factors
+                untrusted += add_contact(model, q, scratch, env, hessian)
+                untrusted += add_friction(model, q, scratch, env, hessian)
+                add_damping(model, q, scratch, env, hessian)
         return untrusted
 
     return SimpleNamespace(assemble=assemble)

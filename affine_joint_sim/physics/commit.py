@@ -23,6 +23,7 @@ _P = {name: i for i, name in enumerate(PROBLEM_COLUMNS)}
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the commit stage for the types namespace ``t``."""
+    with_contact = t.contact     # contact code compiled in (kernels.step_kernels)
     scalar, zero, two, three, four = t.scalar, t.zero, t.two, t.three, t.four
     affine, ortho_energy = t.affine, t.ortho_energy
     pi, two_pi = t.pi, t.two_pi
@@ -166,12 +167,13 @@ def build(t) -> SimpleNamespace:
         state.stats_float[env, s_residual] = residual
         state.stats_float[env, s_gap] = gap
         state.stats_float[env, s_strain] = strain
-        if model.has_contact != 0:
-            nearest, contacts = touching(model, state.q, scratch, env, 1)
-            state.stats_float[env, s_distance] = nearest
-            state.stats_int[env, s_contacts] = contacts
-            state.nearest_seen[env] = wp.min(state.nearest_seen[env], nearest)
-            state.most_contacts[env] = wp.max(state.most_contacts[env], contacts)
+        if wp.static(with_contact):     # compiled in where the scene has contact
+            if model.has_contact != 0:
+                nearest, contacts = touching(model, state.q, scratch, env, 1)
+                state.stats_float[env, s_distance] = nearest
+                state.stats_int[env, s_contacts] = contacts
+                state.nearest_seen[env] = wp.min(state.nearest_seen[env], nearest)
+                state.most_contacts[env] = wp.max(state.most_contacts[env], contacts)
         not_converged = int(0)
         if converged == 0 and rejected == 0:
             not_converged = 1

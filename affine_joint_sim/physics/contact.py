@@ -32,7 +32,10 @@ IMPACT_SHARE = 0.1            # or its Δ² min(d, d̂) in a step above this sha
 RELEASE_HALVINGS = 48   # bisections of an opening pair's damper release (d̂ / 2⁴⁸)
 # Warp passes a struct argument by value: a call the C++ compiler keeps out of line copies the
 # whole Model (and Scratch) each time. The contact stages a step calls whatever is near are
-# inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact)
+# inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact).
+# A GPU compile keeps the gathering of the near list out of line (it runs once a step and where
+# the margins widen): inlined at each of its call sites it was half of the step kernel that
+# NVRTC optimises as one function (bench.inlining).
 INLINE = True
 
 
@@ -343,7 +346,7 @@ def build(t) -> SimpleNamespace:
                                   scratch.slab_edges, base, at)
         return at
 
-    @wp.func(inline=INLINE)
+    @wp.func(inline=False if t.cuda else INLINE)
     def gather_near(model: Model, scratch: Scratch, env: int, start: int):
         """The pairs within d̂ + body_margin of their body (of both bodies for a pair of
         bodies: ``gather_bodies``) at q_n, the static ones first and ascending, into

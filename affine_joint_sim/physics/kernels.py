@@ -32,16 +32,22 @@ _REPORTS = {}
 _SENSORS = {}
 
 
-def step_kernels(scalar, bodies: bool = False) -> SimpleNamespace:
-    """Types, structs, stage functions and the step kernel for ``scalar``; with ``bodies``,
-    of the pipeline whose contact includes pairs of moving bodies (and the coupled solve):
-    a kernel module of its own, so a scene whose bodies never touch each other runs code
-    without any of it (``t.bodies``, a compile-time switch of the stages)."""
-    key = (scalar, bool(bodies))
+def step_kernels(scalar, bodies: bool = False, cuda: bool = False,
+                 contact: bool = True) -> SimpleNamespace:
+    """Types, structs, stage functions and the step kernel for ``scalar``, per kind of contact,
+    each a kernel module of its own: without ``contact`` the step holds no contact code at all
+    (``t.contact``); with ``bodies``, the pipeline whose contact includes pairs of moving
+    bodies (and the coupled solve), so a scene whose bodies never touch each other runs code
+    without any of it (``t.bodies``; both compile-time switches of the stages). With ``cuda``,
+    the functions a GPU compile keeps out of line (``t.cuda``). The structs are the same for
+    every kind and device, so the report, frame and sensor kernels take any of them."""
+    bodies = bool(bodies) and bool(contact)
+    key = (scalar, bodies, bool(cuda), bool(contact))
     if key not in _BUILT:
         t = types_for(scalar)
-        t.bodies = bool(bodies)
-        t.structs = structs(t)
+        t.bodies, t.cuda, t.contact = bodies, bool(cuda), bool(contact)
+        own = not cuda and contact
+        t.structs = structs(t) if own else step_kernels(scalar, bodies).structs
         for stage in _STAGES:
             vars(t).update(vars(stage.build(t)))
         _BUILT[key] = t

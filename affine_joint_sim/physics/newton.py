@@ -29,6 +29,7 @@ HALVINGS = 12       # line-search halvings on the straight path at most (α down
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the Newton loop for the types namespace ``t``."""
+    with_contact = t.contact     # contact code compiled in (kernels.step_kernels)
     mat33, vec3, vec12, scalar = t.mat33, t.vec3, t.vec12, t.scalar
     zero, half, one, two = t.zero, t.half, t.one, t.two
     affine, ortho_energy, polar, mass_times = t.affine, t.ortho_energy, t.polar, t.mass_times
@@ -85,8 +86,8 @@ def build(t) -> SimpleNamespace:
         small = int(0)
         if disp <= disp_tol and affine_max <= affine_tol:
             small = 1
-            if model.has_contact != 0:      # converged on a full, collision-free step only
-                if step_bound(model, scratch, env) < one:
+            if wp.static(with_contact):     # converged on a full, collision-free step only
+                if model.has_contact != 0 and step_bound(model, scratch, env) < one:
                     small = 0
         return wp.max(disp, affine_max) / model.dt, small
 
@@ -199,6 +200,24 @@ def build(t) -> SimpleNamespace:
         their distances are unsigned)."""
         return model.shape_kind.shape[0] > 0 or model.touch_a.shape[0] > 0
 
+    # (a loop holding a wp.static expression is unrolled by Warp whatever its length: these
+    # two keep the line search's switches out of its loop)
+    @wp.func
+    def contact_bound(model: Model, scratch: Scratch, env: int):
+        """``step_bound`` where the scene has contact, else 1 (the full step)."""
+        alpha = one
+        if wp.static(with_contact):
+            if model.has_contact != 0:
+                alpha = step_bound(model, scratch, env)
+        return alpha
+
+    @wp.func
+    def contact_cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
+        """``cover`` of q where the scene has contact."""
+        if wp.static(with_contact):
+            if model.has_contact != 0:
+                cover(model, q, scratch, env, 0)
+
     @wp.func
     def line_search(model: Model, state: State, control: Control, q: wp.array2d(dtype=vec12),
                     scratch: Scratch, env: int, kinetic_scale: scalar, bdf2: int,
@@ -219,28 +238,29 @@ def build(t) -> SimpleNamespace:
         accepted = int(0)
         halvings = int(0)
         trial = energy
-        # along turns points leave their straight lines: a check of its end is enough against
-        # half-spaces (one free side), not against a static shape or a body a point could pass
-        if not passable(model):
-            move(model, q, scratch, env, full_step(model, scratch, env), 1)
-            if model.has_contact != 0:      # the near pairs must cover the turned end too
-                cover(model, q, scratch, env, 0)
-            trial = incremental_potential(model, state, control, q, scratch, env,
-                                          kinetic_scale, bdf2)
-            if trial <= bound:
-                accepted = 1
         alpha = one
-        if model.has_contact != 0:      # no point comes closer than η of its gap (contact)
-            alpha = step_bound(model, scratch, env)
-        for ls in range(HALVINGS + 1):
+        # trial 0 along turns, then the straight path (one call site of the energy, which a
+        # GPU compile inlines at every call site)
+        for ls in range(HALVINGS + 2):
+            if ls == 1:     # no point comes closer than η of its gap (contact)
+                alpha = contact_bound(model, scratch, env)
             if accepted != 0:
                 break
-            move(model, q, scratch, env, alpha, 0)
+            if ls == 0:
+                # along turns points leave their straight lines: a check of its end is enough
+                # against half-spaces (one free side), not against a static shape or a body a
+                # point could pass
+                if passable(model):
+                    continue
+                move(model, q, scratch, env, full_step(model, scratch, env), 1)
+                contact_cover(model, q, scratch, env)   # of the turned end too
+            else:
+                move(model, q, scratch, env, alpha, 0)
             trial = incremental_potential(model, state, control, q, scratch, env,
                                           kinetic_scale, bdf2)
             if trial <= bound:
                 accepted = 1
-            elif ls < HALVINGS:
+            elif ls > 0 and ls <= HALVINGS:
                 alpha = alpha * half
                 halvings += 1
         return trial, halvings, accepted
@@ -287,37 +307,44 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
-        start_energy = zero
-        start_known = int(0)     # the start's E was evaluated choosing it (contact)
-        if model.has_contact != 0:
+        compare = int(0)        # a resting body: q_n where it is lower in E
+        if wp.static(with_contact):
             # from q_n (which touches nothing) where the prediction cannot be reached, or
             # where q_n is lower in E: a resting body's prediction sinks into the barrier
-            from_n = int(0)
-            if not reachable(model, q, scratch, env):
-                from_n = 1
-            elif resting(model, scratch, env):
-                at_n = incremental_potential(model, state, control, scratch.q_n, scratch, env,
-                                             kinetic_scale, bdf2)
-                start_energy = incremental_potential(model, state, control, q, scratch, env,
-                                                     kinetic_scale, bdf2)
-                if at_n < start_energy:
-                    from_n = 1
-                    start_energy = at_n
-                start_known = 1
-            if from_n != 0:
-                for k in range(n_free):
-                    b = model.elim_order[k]
-                    q[env, b] = scratch.q_n[env, b]
+            if model.has_contact != 0:
+                if not reachable(model, q, scratch, env):
+                    for k in range(n_free):
+                        b = model.elim_order[k]
+                        q[env, b] = scratch.q_n[env, b]
+                elif resting(model, scratch, env):
+                    compare = 1
+        # the start's E (with a resting body, first E at q_n): one call site of the energy,
+        # which a GPU compile inlines at every call site
+        energy = zero
+        at_n = zero
+        for e in range(2):
+            if e == 0 and compare == 0:
+                continue
+            if e == 1 and model.line_search == 0 and model.has_contact == 0:
+                break
+            at = q
+            if e == 0:
+                at = scratch.q_n
+            energy = incremental_potential(model, state, control, at, scratch, env,
+                                           kinetic_scale, bdf2)
+            if e == 0:
+                at_n = energy
+        if compare != 0 and at_n < energy:
+            energy = at_n
+            for k in range(n_free):
+                b = model.elim_order[k]
+                q[env, b] = scratch.q_n[env, b]
         for k in range(model.joint_parent.shape[0]):
             scratch.limit_depth[env, k] = -one
         # newton_tol·dt, or the rounding of an update if larger: below it Newton only cycles
         size, lever = extent(model, q, env)
         disp_tol = wp.max(model.newton_tol * dt, update_roundoff * size)
         affine_tol = wp.max(model.newton_tol * dt, update_roundoff * size / lever)
-        energy = start_energy
-        if (model.line_search != 0 or model.has_contact != 0) and start_known == 0:
-            energy = incremental_potential(model, state, control, q, scratch, env,
-                                           kinetic_scale, bdf2)
         iterations = int(0)
         halvings = int(0)
         failures = int(0)
@@ -331,25 +358,30 @@ def build(t) -> SimpleNamespace:
             for k in range(n_free):
                 b = model.elim_order[k]
                 scratch.q_start[env, b] = q[env, b]
-            if factored != 0:
-                # the last factors with the new gradient: converged already, no new Hessian
+            # first, with the last factors, the new gradient alone (converged already where
+            # its update is small and the factors are trusted: no new Hessian), then a new
+            # Hessian; one call site each (``assemble`` and ``update_test`` hold the contact
+            # passes, which a GPU compile inlines at every call site)
+            fresh = 1 - factored
+            for attempt in range(2):
                 untrusted = assemble(model, state, control, q, scratch, env, kinetic_scale,
-                                     bdf2, 0)
-                solve_factored(model, scratch, env)
+                                     bdf2, fresh)
+                if fresh != 0:
+                    used, stalled = solve(model, scratch, env)
+                    inner += used
+                    stalls += stalled
+                    factored = 1
+                else:
+                    solve_factored(model, scratch, env)
                 residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
-                if untrusted == 0 and small != 0:
-                    move(model, q, scratch, env, one, 0)
+                if small != 0 and (fresh != 0 or untrusted == 0):
                     converged = 1
                     break
-            assemble(model, state, control, q, scratch, env, kinetic_scale, bdf2, 1)
-            used, stalled = solve(model, scratch, env)
-            inner += used
-            stalls += stalled
-            factored = 1
-            residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
-            if small != 0:
+                if fresh != 0:
+                    break
+                fresh = 1
+            if converged != 0:
                 move(model, q, scratch, env, one, 0)
-                converged = 1
                 break
             if model.line_search == 0 and model.has_contact == 0:
                 move(model, q, scratch, env, full_step(model, scratch, env), 1)

@@ -16,6 +16,7 @@ __all__ = ['build']
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the incremental potential for the types namespace ``t``."""
+    with_contact = t.contact     # contact code compiled in (kernels.step_kernels)
     vec12, scalar, zero, half = t.vec12, t.scalar, t.zero, t.half
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
@@ -45,10 +46,11 @@ def build(t) -> SimpleNamespace:
                     e, d1, d2 = coordinate_terms(model, state, control, env, k,
                                                  joint_coordinate(model, q, state, env, k), bdf2)
                     energy += e
-        if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed this step
-            energy += contact_energy(model, q, scratch, env)
-            energy += friction_energy(model, q, scratch, env)
-            energy += damping_energy(model, q, scratch, env)
+        if wp.static(with_contact):     # compiled in where the scene has contact
+            if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed
+                energy += contact_energy(model, q, scratch, env)
+                energy += friction_energy(model, q, scratch, env)
+                energy += damping_energy(model, q, scratch, env)
         return energy
 
     return SimpleNamespace(incremental_potential=incremental_potential)

@@ -26,9 +26,9 @@ from types import SimpleNamespace
 
 import warp as wp
 
-__all__ = ['build', 'IMU', 'CONTACT']
+from affine_joint_sim.sensors import IMU
 
-IMU, CONTACT = 0, 1         # a sensor's kind in the kernel
+__all__ = ['build']
 
 
 def build(t, poses, pair_contact=None) -> SimpleNamespace:

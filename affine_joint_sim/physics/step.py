@@ -21,6 +21,7 @@ __all__ = ['build']
 
 def build(t) -> SimpleNamespace:
     """The step kernel for the types namespace ``t``."""
+    with_contact = t.contact     # contact code compiled in (kernels.step_kernels)
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
     integrator_scales, predict, apply_commands = t.integrator_scales, t.predict, t.apply_commands
@@ -37,17 +38,19 @@ def build(t) -> SimpleNamespace:
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 0)
         predict(model, state, scratch, env, bdf2, force_scale)
         unresolved = int(0)
-        if model.has_contact != 0:     # pairs arriving within d̂, or deep in the barrier
-            unresolved = lag_friction(model, state, scratch, env)
-            if bdf2 != 0 and unresolved != 0:
-                bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 1)
-                predict(model, state, scratch, env, bdf2, force_scale)
+        if wp.static(with_contact):     # compiled in where the scene has contact
+            if model.has_contact != 0:     # pairs arriving within d̂, or deep in the barrier
+                unresolved = lag_friction(model, state, scratch, env)
+                if bdf2 != 0 and unresolved != 0:
+                    bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 1)
+                    predict(model, state, scratch, env, bdf2, force_scale)
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
         iterations, halvings, failures, converged, residual, inner, stalls = newton(
             model, state, control, scratch, env, kinetic_scale, bdf2)
         restart = unresolved
-        if restart == 0 and model.has_contact != 0 and model.integrator == BDF2:
-            restart = impact(model, state, scratch, env)
+        if wp.static(with_contact):
+            if restart == 0 and model.has_contact != 0 and model.integrator == BDF2:
+                restart = impact(model, state, scratch, env)
         finite, aliased, rejected = finish(model, state, scratch, env, bdf2)
         if restart != 0:     # the next step is BDF1: BDF2 would carry an impact's turn on
             state.history_ready[env] = 0
