@@ -83,6 +83,16 @@ def _stat_layout(host) -> tuple[list[str], itemgetter]:
     return [every[c] for c in columns], itemgetter(*columns)
 
 
+def _held_at(struct, kind, field: str, device) -> wp.array:
+    """A one-element device array holding ``struct`` (of Warp struct ``kind``), whose address
+    field ``field`` is set to that array's (the GPU variant's out-of-line functions read the
+    struct there, by reference)."""
+    held = wp.empty(1, dtype=kind, device=device)
+    setattr(struct, field, held.ptr)
+    wp.copy(held, wp.array([struct], dtype=kind, device='cpu'))
+    return held
+
+
 def _chunks(envs: int, threads: int | None) -> list[tuple[int, int]]:
     """(first environment, count) of each thread's share of ``envs`` (even shares, the first
     ones one larger); ``threads`` None: one per core the process may use."""
@@ -111,6 +121,9 @@ class Stepper:
 
     # Host mirrors on the CPU too: runs the GPU's upload/download path where CI can test it.
     _mirror_on_cpu = False
+    # The GPU's step kernel variant on the CPU too (kernels.step_kernels(cuda=True)): its
+    # out-of-line functions, where CI can test them.
+    _gpu_variant_on_cpu = False
 
     def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None,
                  on_problem=None, threads: int | None = None):
@@ -134,7 +147,8 @@ class Stepper:
         with summarised(f'scene {scene.name!r}'):     # one line for its meshes reduced
             self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs,
-                               cuda=self.device.is_cuda, contact=bool(self._host.has_contact))
+                               cuda=self.device.is_cuda or self._gpu_variant_on_cpu,
+                               contact=bool(self._host.has_contact))
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
         # a joint's index by name, and the joints that take a command: a control loop sets
         # torques by name every step, so these are looked up, not searched
@@ -738,6 +752,9 @@ class Stepper:
         state, control, scratch = (allocate(k, getattr(k.structs, group.capitalize()), group,
                                             sizes, dev)
                                    for group in ('state', 'control', 'scratch'))
+        if k.cuda:      # its out-of-line functions take these from one-element arrays
+            self._held = [_held_at(self._model, k.structs.Model, 'model_address', dev),
+                          _held_at(scratch, k.structs.Scratch, 'scratch_address', dev)]
         self._state, self._control, self._scratch = state, control, scratch
 
         separate = not self.device.is_cpu or self._mirror_on_cpu

@@ -62,11 +62,11 @@ def test_copies_follow_call_sites_unrolled_loops_static_branches_and_out_of_line
 
 
 # The largest function a GPU compile optimises at once, per kind of contact (statements after
-# inlining, copies of the distance of a pair): measured 2026-12-04 at 3,762 (none), 15,704
-# (world) and 24,300 (bodies); the step kernel with contact was 33,264 statements with 62
-# copies (64,008 and 83 with pairs of bodies), and 5,525 before contact existed, when NVRTC
-# took 25–60 s.
-BOUNDS = {'none': (4_000, 0), 'world': (16_500, 30), 'bodies': (25_000, 30)}
+# inlining, copies of the distance of a pair in any one function compiled): measured 2026-12-04
+# at 3,762 (none), 7,468 (world) and 10,844 (bodies), pair_gap compiled once on its own; the
+# step kernel with contact was 33,264 statements with 62 copies (64,008 and 83 with pairs of
+# bodies), and 5,525 before contact existed, when NVRTC took 25–60 s.
+BOUNDS = {'none': (4_000, 0), 'world': (8_000, 1), 'bodies': (11_500, 1)}
 
 
 def test_no_gpu_step_kernel_inlines_more_than_its_bound():

@@ -35,7 +35,7 @@ RELEASE_HALVINGS = 48   # bisections of an opening pair's damper release (d̂ / 
 # inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact).
 # A GPU compile keeps the gathering of the near list out of line (it runs once a step and where
 # the margins widen): inlined at each of its call sites it was half of the step kernel that
-# NVRTC optimises as one function (bench.inlining).
+# NVRTC optimises as one function (bench.inlining; ``gather_near_apart``).
 INLINE = True
 
 
@@ -346,7 +346,7 @@ def build(t) -> SimpleNamespace:
                                   scratch.slab_edges, base, at)
         return at
 
-    @wp.func(inline=False if t.cuda else INLINE)
+    @wp.func(inline=INLINE)
     def gather_near(model: Model, scratch: Scratch, env: int, start: int):
         """The pairs within d̂ + body_margin of their body (of both bodies for a pair of
         bodies: ``gather_bodies``) at q_n, the static ones first and ascending, into
@@ -389,6 +389,21 @@ def build(t) -> SimpleNamespace:
             at = gather_bodies(model, scratch, env, at)
         return at - start
 
+    gather = gather_near
+    if t.cuda:
+        # out of line on a GPU, the Model and Scratch by reference (as contact_geometry's
+        # pair_gap_apart)
+        @wp.func(inline=False)
+        def gather_near_apart(model_at: wp.uint64, scratch_at: wp.uint64, env: int, start: int):
+            return gather_near(wp.array(ptr=model_at, shape=(1,), dtype=Model)[0],
+                               wp.array(ptr=scratch_at, shape=(1,), dtype=Scratch)[0], env,
+                               start)
+
+        @wp.func(inline=True)
+        def gather(model: Model, scratch: Scratch, env: int, start: int):
+            """``gather_near`` through the Model's and Scratch's addresses (out of line)."""
+            return gather_near_apart(model.model_address, scratch.scratch_address, env, start)
+
     @wp.func(inline=INLINE)
     def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
               along: int):
@@ -407,7 +422,7 @@ def build(t) -> SimpleNamespace:
                     scratch.body_margin[env, b] = two * reach
                     wider = 1
             if wider != 0:
-                scratch.near_count[env] = gather_near(model, scratch, env, 0)
+                scratch.near_count[env] = gather(model, scratch, env, 0)
 
     @wp.func
     def tangent_of(n: vec3):
@@ -529,7 +544,7 @@ def build(t) -> SimpleNamespace:
             scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * motion(
                 model, b, scratch.q_tilde[env, b] - scratch.q_n[env, b]))
         old = scratch.near_count[env]
-        fresh = gather_near(model, scratch, env, old)
+        fresh = gather(model, scratch, env, old)
         arriving = int(0)
         for k in range(old, old + fresh):
             p = scratch.near_pairs[env, k]

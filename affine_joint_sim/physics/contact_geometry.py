@@ -384,6 +384,22 @@ def build(t) -> SimpleNamespace:
                 return body_edge_gap(model, q, q_other, first, second)
         return static_vertex_gap(model, q, p - point_pairs(model) - edge_pairs(model))
 
+    gap = pair_gap
+    if t.cuda:
+        # A GPU compile inlines a function at each call site; pair_gap, called from some thirty,
+        # is compiled once, out of line. Warp passes a struct by value, and an out-of-line call
+        # would copy the whole Model into local memory, so it takes the Model by reference: the
+        # address of the one-element array holding it (model_address), whose element's fields
+        # NVVM loads only where pair_gap reads them.
+        @wp.func(inline=False)
+        def pair_gap_apart(address: wp.uint64, q: vec12, q_other: vec12, p: int):
+            return pair_gap(wp.array(ptr=address, shape=(1,), dtype=Model)[0], q, q_other, p)
+
+        @wp.func(inline=True)
+        def gap(model: Model, q: vec12, q_other: vec12, p: int):
+            """``pair_gap`` through the Model's address (out of line)."""
+            return pair_gap_apart(model.model_address, q, q_other, p)
+
     @wp.func(inline=True)
     def other_state(q: wp.array2d(dtype=vec12), env: int, body: int, other: int):
         """The state of a pair's other body (the first body's where the other side is static:
@@ -397,7 +413,7 @@ def build(t) -> SimpleNamespace:
     def gap_at(model: Model, q: wp.array2d(dtype=vec12), env: int, p: int):
         """``pair_gap`` of pair p with its bodies at their states in q."""
         body, other = pair_bodies(model, p)
-        return pair_gap(model, q[env, body], other_state(q, env, body, other), p)
+        return gap(model, q[env, body], other_state(q, env, body, other), p)
 
     @wp.func
     def mollifier(own: vec3, own_world: vec3, other: vec3, other_world: vec3):
@@ -493,7 +509,7 @@ def build(t) -> SimpleNamespace:
     return SimpleNamespace(triangle_weights=triangle_weights, contact_distance=distance,
                            statics=statics, point_pairs=point_pairs, edge_pairs=edge_pairs,
                            static_pairs=static_pairs, pair_count=pair_count,
-                           pair_bodies=pair_bodies, pair_gap=pair_gap, gap_at=gap_at,
+                           pair_bodies=pair_bodies, pair_gap=gap, gap_at=gap_at,
                            unit_gap=unit_gap,
                            other_state=other_state, pair_weight=pair_weight, motion=motion,
                            reach=reach)

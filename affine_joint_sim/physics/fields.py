@@ -31,8 +31,8 @@ __all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'C
 
 @dataclass(frozen=True)
 class Field:
-    """One field: ``dtype`` is int32, scalar (the precision's float), vec3, mat33, vec12 or
-    mat12."""
+    """One field: ``dtype`` is int32, uint64 (an address), scalar (the precision's float),
+    vec3, mat33, vec12 or mat12."""
 
     name: str
     group: str
@@ -118,6 +118,9 @@ FIELDS = _fields('model', [
     ('joint_drive_stiffness', 'scalar', J, 'kg', 'drive K = strength_ratio (m_P + m_C), 0: none'),
     ('has_contact', 'int32', (), '-', '1: the scene has contact (every contact loop is skipped '
      'otherwise)'),
+    ('model_address', 'uint64', (), '-', 'the device address of a one-element array holding '
+     'this Model: the GPU variant\'s out-of-line functions take the Model there, by reference '
+     '(Stepper; 0 on the CPU)'),
     ('contact_d_hat', 'scalar', (), 'm', 'barrier activation distance d̂'),
     ('contact_kappa', 'scalar', (), 'J/m^4', 'barrier stiffness κ'),
     ('point_body', 'int32', ('point',), '-', 'free body of each contact point'),
@@ -204,6 +207,8 @@ FIELDS = _fields('model', [
     ('joint_target', 'scalar', EJ, 'rad | m', 'drive target'),
     ('joint_drive_enabled', 'int32', EJ, '-', 'driving/is_constrained'),
 ]) + _fields('scratch', [
+    ('scratch_address', 'uint64', (), '-', 'the device address of a one-element array '
+     'holding this Scratch (as model_address)'),
     ('q_n', 'vec12', EB, 'm, -', 'start-of-step state'),
     ('q_tilde', 'vec12', EB, 'm, -', 'predicted state q̃'),
     ('q_start', 'vec12', EB, 'm, -', 'state at the start of a line search'),
@@ -277,7 +282,7 @@ def fields_of(group: str) -> list[Field]:
 
 
 def _wp_type(t, dtype):
-    return wp.int32 if dtype == 'int32' else getattr(t, dtype)
+    return {'int32': wp.int32, 'uint64': wp.uint64}.get(dtype) or getattr(t, dtype)
 
 
 def _annotation(t, f):
@@ -320,6 +325,9 @@ def allocate(t, struct, group, sizes: dict, device):
     """A ``group`` struct of zeroed device arrays; ``sizes`` maps symbolic dims to lengths."""
     instance = struct()
     for f in fields_of(group):
+        if f.shape == ():       # a plain member (an address): 0
+            setattr(instance, f.name, _wp_type(t, f.dtype)(0))
+            continue
         shape = tuple(sizes[d] for d in f.shape)
         setattr(instance, f.name, wp.zeros(shape, dtype=_wp_type(t, f.dtype), device=device))
     return instance

@@ -150,7 +150,7 @@ def build_model(scene) -> HostModel:
         body_joint_hessian=joint_hessian,
         elim_order=elim_order, elim_parent=elim_parent, elim_offdiag=elim_offdiag,
         joint_has_free=has_free, joint_offdiag_body=offdiag_body,
-        joint_offdiag_child=offdiag_child, **joints, **contact)
+        joint_offdiag_child=offdiag_child, model_address=0, **joints, **contact)
     return HostModel(values, precision=scene.solver.precision, active_terms=active,
                      body_q0=q0, body_v0=v0, static_names=static_names)
 
