@@ -686,7 +686,7 @@ class Stepper:
         if not self._host.has_contact:
             per_env = [[] for _ in range(self._envs)]
         else:
-            if self._contacts is None:      # once per state: markers and sensors both ask
+            if self._contacts is None:      # once per state: markers and users may both ask
                 self._contacts = self._report_contacts()
             per_env = self._contacts
         return per_env if self._batched else per_env[0]
