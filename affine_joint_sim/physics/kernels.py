@@ -39,8 +39,9 @@ def step_kernels(scalar, bodies: bool = False, cuda: bool = False,
     (``t.contact``); with ``bodies``, the pipeline whose contact includes pairs of moving
     bodies (and the coupled solve), so a scene whose bodies never touch each other runs code
     without any of it (``t.bodies``; both compile-time switches of the stages). With ``cuda``,
-    the functions a GPU compile keeps out of line (``t.cuda``). The structs are the same for
-    every kind and device, so the report, frame and sensor kernels take any of them."""
+    the functions a GPU compile keeps out of line (``t.cuda``). The structs are the CPU
+    pipeline's of the same pair kind (``bodies``) whatever ``cuda`` and ``contact``, so the
+    report, frame and sensor kernels built from that pipeline take any of its variants."""
     bodies = bool(bodies) and bool(contact)
     key = (scalar, bodies, bool(cuda), bool(contact))
     if key not in _BUILT:
