@@ -101,9 +101,9 @@ bench: venv
 
 # Prepares the GPU check (affine_joint_sim/bench/device_check.py) for a lent GPU machine that has
 # no compiler time to spare and no package index: the workplace's gpu-prep hook packs Warp and
-# compiles every step kernel variant of both precisions for sm_90 ahead of time (without contact
-# ~2 min each on 2 cores; with contact far longer: README, "Compiling for a GPU"), then the CPU
-# float64 reference trajectories are written beside them. The hook prints the two
+# compiles every step kernel variant of both precisions for sm_90 ahead of time (0.5–2 min each
+# on 2 cores: README, "Compiling for a GPU"), then the CPU float64 reference trajectories are
+# written beside them. The hook prints the two
 # device calls; the second runs
 #   python3 -m affine_joint_sim.bench.device_check run --reference .gpu-extra/reference.npz
 GPU_PREP ?= ../shared/hooks/gpu-prep

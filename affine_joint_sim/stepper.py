@@ -753,8 +753,10 @@ class Stepper:
                                             sizes, dev)
                                    for group in ('state', 'control', 'scratch'))
         if k.cuda:      # its out-of-line functions take these from one-element arrays
-            self._held = [_held_at(self._model, k.structs.Model, 'model_address', dev),
-                          _held_at(scratch, k.structs.Scratch, 'scratch_address', dev)]
+            self._held = [_held_at(struct, getattr(k.structs, group.capitalize()),
+                                   f'{group}_address', dev)
+                          for group, struct in (('model', self._model), ('state', state),
+                                                ('control', control), ('scratch', scratch))]
         self._state, self._control, self._scratch = state, control, scratch
 
         separate = not self.device.is_cpu or self._mirror_on_cpu

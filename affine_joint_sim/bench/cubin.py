@@ -2,9 +2,11 @@
 
 A cubin (what ``wp.compile_aot_module(module, arch=90)`` writes, NVRTC only, no driver) is an
 ELF file; its ``.nv.info`` section holds, per kernel, the registers per thread (attribute
-``EIATTR_REGCOUNT``, 0x2f) and the stack frame in local memory per thread
-(``EIATTR_FRAME_SIZE``, 0x11: register spills and local arrays such as 12×12 matrices), and
-``.text.<kernel>`` holds its machine code. These three numbers predict GPU occupancy (65536
+``EIATTR_REGCOUNT``, 0x2f), the stack frame in local memory per thread (``EIATTR_FRAME_SIZE``,
+0x11: register spills and local arrays such as 12×12 matrices) and, where the kernel calls
+functions kept out of line, the stack its deepest chain of calls needs
+(``EIATTR_MIN_STACK_SIZE``, 0x12: its frame and theirs); ``.text.<name>`` holds the machine
+code of the kernel and of each such function. These numbers predict GPU occupancy (65536
 registers per SM are shared by its resident threads), local-memory traffic and instruction
 cache pressure before any device time is spent.
 """
@@ -15,15 +17,16 @@ from typing import NamedTuple
 
 __all__ = ['KernelResources', 'kernel_resources']
 
-_REGCOUNT, _FRAME_SIZE = 0x2F, 0x11
+_REGCOUNT, _FRAME_SIZE, _MIN_STACK = 0x2F, 0x11, 0x12
 # Record formats: SVAL (0x04) has a payload of ``size`` bytes after its 4-byte header; NVAL,
 # BVAL and HVAL hold their value in the header itself.
 _FORMAT_SVAL = 0x04
 
 
 class KernelResources(NamedTuple):
-    """Per-thread cost of one kernel: ``registers``, ``frame_bytes`` (local memory) and
-    ``code_bytes`` (its machine code)."""
+    """Per-thread cost of one kernel: ``registers``, ``frame_bytes`` (local memory: its own
+    frame and that of its deepest chain of out-of-line calls) and ``code_bytes`` (its machine
+    code and that of every function its cubin keeps out of line)."""
 
     name: str
     registers: int
@@ -57,12 +60,12 @@ def _symbols(data: bytes, sections: list) -> list[str]:
 
 
 def kernel_resources(path) -> list[KernelResources]:
-    """The kernels of cubin ``path`` with their registers, stack frame and code size."""
+    """The kernels of cubin ``path`` with their registers, stack and code size."""
     data = Path(path).read_bytes()
     sections = _sections(data)
     symbols = _symbols(data, sections)
     code = {name[len('.text.'):]: h[5] for name, h in sections if name.startswith('.text.')}
-    values = {_REGCOUNT: {}, _FRAME_SIZE: {}}
+    values = {_REGCOUNT: {}, _FRAME_SIZE: {}, _MIN_STACK: {}}
     for name, h in sections:
         if name != '.nv.info':
             continue
@@ -76,6 +79,9 @@ def kernel_resources(path) -> list[KernelResources]:
                 at += 4 + size
             else:
                 at += 4
-    return [KernelResources(name, values[_REGCOUNT][name], values[_FRAME_SIZE].get(name, 0),
-                            code.get(name, 0))
-            for name in values[_REGCOUNT] if name in code]
+    kernels = [name for name in values[_MIN_STACK] if name in code]
+    functions = sum(size for name, size in code.items() if name not in kernels)
+    return [KernelResources(name, values[_REGCOUNT][name],
+                            values[_MIN_STACK].get(name, values[_FRAME_SIZE].get(name, 0)),
+                            code[name] + functions)
+            for name in kernels]

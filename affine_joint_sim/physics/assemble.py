@@ -13,6 +13,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.out_of_line import apart
+
 __all__ = ['build']
 
 
@@ -28,8 +30,10 @@ def build(t) -> SimpleNamespace:
     joint_coordinate, joint_coordinate_gradients = (t.joint_coordinate,
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
-    limit_penetration, add_contact = t.limit_penetration, t.add_contact
-    add_friction, add_damping = t.add_friction, t.add_damping
+    limit_penetration = t.limit_penetration
+    # each out of line on a GPU (physics.out_of_line)
+    add_contact, add_friction = apart(t, t.add_contact), apart(t, t.add_friction)
+    add_damping = apart(t, t.add_damping)
 
     @wp.func
     def add_gradients(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
@@ -66,41 +70,63 @@ def build(t) -> SimpleNamespace:
                 scratch.offdiag[env, slot] += h_pc
 
     @wp.func
-    def add_state_blocks(model: Model, state: State, control: Control,
-                         q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int,
-                         bdf2: int, hessian: int):
-        """Joint k's state-dependent blocks (prismatic axis terms) and its coordinate terms'
-        gradient and Gauss–Newton blocks, where they are not zero (the gradient alone
-        without ``hessian``). Returns 1 if the joint's limit is entered at q or was at the
-        last factorization (its stiffness then changed since: the last factors cannot be
-        trusted for this gradient), else 0."""
-        if hessian != 0 and joint_is_nonlinear(model, k) != 0:
+    def add_nonlinear_blocks(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
+                             env: int, k: int):
+        """Joint k's state-dependent blocks (prismatic axis terms), where it has any."""
+        if joint_is_nonlinear(model, k) != 0:
             h_pp, h_pc, h_cc, has = joint_state_blocks(model, q, env, k)
             if has != 0:
                 add_blocks(model, scratch, env, k, vec12(), vec12(), h_pp, h_pc, h_cc)
+
+    @wp.func
+    def add_coordinate_terms(model: Model, state: State, control: Control,
+                             q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int,
+                             bdf2: int, hessian: int):
+        """Joint k's coordinate terms' gradient and Gauss–Newton blocks, where they are not
+        zero (the gradient alone without ``hessian``). Returns 1 if the joint's limit is
+        entered at q or was at the last factorization (its stiffness then changed since: the
+        last factors cannot be trusted for this gradient), else 0."""
+        untrusted = int(0)
+        x = joint_coordinate(model, q, state, env, k)
+        e, d1, d2 = coordinate_terms(model, state, control, env, k, x, bdf2)
+        if hessian == 0:
+            if model.joint_limit_strength[k] > zero:
+                depth, side = limit_penetration(model, k, x)
+                if depth > zero or scratch.limit_depth[env, k] > zero:
+                    untrusted = 1
+            if d1 != zero:
+                x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
+                add_gradients(model, scratch, env, k, d1 * x_parent, d1 * x_child)
+            return untrusted
+        if model.joint_limit_strength[k] > zero:
+            depth, change = limit_secant(model, k, x, scratch.limit_depth[env, k])
+            scratch.limit_depth[env, k] = depth
+            d2 += change
+        if d1 != zero or d2 != zero:     # e.g. an inactive limit alone costs no blocks
+            x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
+            y_parent = d2 * x_parent
+            add_blocks(model, scratch, env, k, d1 * x_parent, d1 * x_child,
+                       wp.outer(y_parent, x_parent), wp.outer(y_parent, x_child),
+                       wp.outer(d2 * x_child, x_child))
+        return untrusted
+
+    # each out of line on a GPU (physics.out_of_line): inlined together into the assembly,
+    # their 12×12 blocks took 30 KB of its stack frame there (float64)
+    add_nonlinear_blocks = apart(t, add_nonlinear_blocks)
+    add_coordinate_terms = apart(t, add_coordinate_terms)
+
+    @wp.func
+    def add_state_blocks(model: Model, state: State, control: Control,
+                         q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int,
+                         bdf2: int, hessian: int):
+        """Joint k's state-dependent blocks (``add_nonlinear_blocks``, with ``hessian``) and
+        its coordinate terms (``add_coordinate_terms``). Returns the latter's."""
+        if hessian != 0:
+            add_nonlinear_blocks(model, q, scratch, env, k)
         untrusted = int(0)
         if model.joint_state_terms[k] != 0:
-            x = joint_coordinate(model, q, state, env, k)
-            e, d1, d2 = coordinate_terms(model, state, control, env, k, x, bdf2)
-            if hessian == 0:
-                if model.joint_limit_strength[k] > zero:
-                    depth, side = limit_penetration(model, k, x)
-                    if depth > zero or scratch.limit_depth[env, k] > zero:
-                        untrusted = 1
-                if d1 != zero:
-                    x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
-                    add_gradients(model, scratch, env, k, d1 * x_parent, d1 * x_child)
-                return untrusted
-            if model.joint_limit_strength[k] > zero:
-                depth, change = limit_secant(model, k, x, scratch.limit_depth[env, k])
-                scratch.limit_depth[env, k] = depth
-                d2 += change
-            if d1 != zero or d2 != zero:     # e.g. an inactive limit alone costs no blocks
-                x_parent, x_child = joint_coordinate_gradients(model, q, env, k)
-                y_parent = d2 * x_parent
-                add_blocks(model, scratch, env, k, d1 * x_parent, d1 * x_child,
-                           wp.outer(y_parent, x_parent), wp.outer(y_parent, x_child),
-                           wp.outer(d2 * x_child, x_child))
+            untrusted = add_coordinate_terms(model, state, control, q, scratch, env, k, bdf2,
+                                             hessian)
         return untrusted
 
     @wp.func

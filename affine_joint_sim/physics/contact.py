@@ -18,6 +18,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.out_of_line import apart
+
 __all__ = ['ADVANCE_STEPS', 'ARRIVING', 'IMPACT_ACCELERATION', 'IMPACT_SHARE',
            'RELEASE_HALVINGS', 'STEP_SLACK', 'STIFF', 'build']
 
@@ -389,20 +391,7 @@ def build(t) -> SimpleNamespace:
             at = gather_bodies(model, scratch, env, at)
         return at - start
 
-    gather = gather_near
-    if t.cuda:
-        # out of line on a GPU, the Model and Scratch by reference (as contact_geometry's
-        # pair_gap_apart)
-        @wp.func(inline=False)
-        def gather_near_apart(model_at: wp.uint64, scratch_at: wp.uint64, env: int, start: int):
-            return gather_near(wp.array(ptr=model_at, shape=(1,), dtype=Model)[0],
-                               wp.array(ptr=scratch_at, shape=(1,), dtype=Scratch)[0], env,
-                               start)
-
-        @wp.func(inline=True)
-        def gather(model: Model, scratch: Scratch, env: int, start: int):
-            """``gather_near`` through the Model's and Scratch's addresses (out of line)."""
-            return gather_near_apart(model.model_address, scratch.scratch_address, env, start)
+    gather = apart(t, gather_near)     # out of line on a GPU (physics.out_of_line)
 
     @wp.func(inline=INLINE)
     def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,

@@ -19,6 +19,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.out_of_line import apart
+
 __all__ = ['build']
 
 
@@ -384,21 +386,8 @@ def build(t) -> SimpleNamespace:
                 return body_edge_gap(model, q, q_other, first, second)
         return static_vertex_gap(model, q, p - point_pairs(model) - edge_pairs(model))
 
-    gap = pair_gap
-    if t.cuda:
-        # A GPU compile inlines a function at each call site; pair_gap, called from some thirty,
-        # is compiled once, out of line. Warp passes a struct by value, and an out-of-line call
-        # would copy the whole Model into local memory, so it takes the Model by reference: the
-        # address of the one-element array holding it (model_address), whose element's fields
-        # NVVM loads only where pair_gap reads them.
-        @wp.func(inline=False)
-        def pair_gap_apart(address: wp.uint64, q: vec12, q_other: vec12, p: int):
-            return pair_gap(wp.array(ptr=address, shape=(1,), dtype=Model)[0], q, q_other, p)
-
-        @wp.func(inline=True)
-        def gap(model: Model, q: vec12, q_other: vec12, p: int):
-            """``pair_gap`` through the Model's address (out of line)."""
-            return pair_gap_apart(model.model_address, q, q_other, p)
+    # called from some thirty places: out of line on a GPU (physics.out_of_line)
+    gap = apart(t, pair_gap)
 
     @wp.func(inline=True)
     def other_state(q: wp.array2d(dtype=vec12), env: int, body: int, other: int):

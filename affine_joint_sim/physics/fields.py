@@ -183,6 +183,8 @@ FIELDS = _fields('model', [
      'viscous'),
     ('contact_damping', 'scalar', (), '-', 'ζ: contact damping as a ratio to critical'),
 ]) + _fields('state', [
+    ('state_address', 'uint64', (), '-', 'the device address of a one-element array holding '
+     'this State (as model_address)'),
     ('q', 'vec12', EB, 'm, -', 'ABD state [p, a1, a2, a3]'),
     ('v', 'vec12', EB, 'm/s, 1/s', 'ABD velocity q̇'),
     ('q_prev', 'vec12', EB, 'm, -', 'BDF2 history q_{n-1}'),
@@ -202,6 +204,8 @@ FIELDS = _fields('model', [
      'with any and with each kind of PROBLEM_COLUMNS, per launch (zeroed before each step): '
      'what the host reads every step; the stats only for a kind it has not warned about yet'),
 ]) + _fields('control', [
+    ('control_address', 'uint64', (), '-', 'the device address of a one-element array '
+     'holding this Control (as model_address)'),
     ('joint_torque', 'scalar', EJ, 'N·m | N', 'external torque τ (UID 668) or force (UID 667)'),
     ('joint_enabled', 'int32', EJ, '-', 'external_torque/is_constrained'),
     ('joint_target', 'scalar', EJ, 'rad | m', 'drive target'),

@@ -22,6 +22,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.out_of_line import apart
+
 __all__ = ['HALVINGS', 'build']
 
 HALVINGS = 12       # line-search halvings on the straight path at most (α down to 1/4096)
@@ -39,10 +41,11 @@ def build(t) -> SimpleNamespace:
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
-    assemble, solve, solve_factored = t.assemble, t.solve, t.solve_factored
+    # the big stages out of line on a GPU (physics.out_of_line)
+    assemble, solve, solve_factored = apart(t, t.assemble), apart(t, t.solve), t.solve_factored
+    incremental_potential = apart(t, t.incremental_potential)
+    step_bound, touching, cover = apart(t, t.step_bound), apart(t, t.touching), t.cover
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
-    incremental_potential = t.incremental_potential
-    step_bound, touching, cover = t.step_bound, t.touching, t.cover
 
     @wp.func
     def warm_start(q_tilde: vec12, q_n: vec12):

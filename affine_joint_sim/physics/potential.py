@@ -11,6 +11,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.out_of_line import apart
+
 __all__ = ['build']
 
 
@@ -23,8 +25,9 @@ def build(t) -> SimpleNamespace:
     affine, mass_times, ortho_energy = t.affine, t.mass_times, t.ortho_energy
     joint_energy, joint_coordinate, coordinate_terms = (t.joint_energy, t.joint_coordinate,
                                                         t.coordinate_terms)
-    contact_energy, friction_energy = t.contact_energy, t.friction_energy
-    damping_energy = t.damping_energy
+    # each out of line on a GPU (physics.out_of_line)
+    contact_energy, friction_energy = apart(t, t.contact_energy), apart(t, t.friction_energy)
+    damping_energy = apart(t, t.damping_energy)
 
     @wp.func
     def incremental_potential(model: Model, state: State, control: Control,

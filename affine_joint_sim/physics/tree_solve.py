@@ -12,6 +12,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
+from affine_joint_sim.physics.out_of_line import apart
+
 __all__ = ['build']
 
 
@@ -183,6 +185,9 @@ def build(t) -> SimpleNamespace:
                 r = r - scratch.coupling[env, b] @ target[env, p]
             target[env, b] = backward_solve(scratch.factor[env, b],
                                             scratch.pivot_inverse[env, b], r)
+
+    # three call sites with pairs of bodies: out of line on a GPU (physics.out_of_line)
+    solve_factored_into = apart(t, solve_factored_into)
 
     @wp.func
     def solve_factored(model: Model, scratch: Scratch, env: int):

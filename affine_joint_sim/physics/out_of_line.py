@@ -1,0 +1,63 @@
+"""A stage function compiled once, out of line, in the GPU variant of the step kernel.
+
+A GPU compile inlines a Warp function at each of its call sites, and NVRTC's time grows much
+faster than the size of the one function it optimises (bench.inlining; docs/architecture.md,
+"The step kernel"): in the GPU variant (kernels.step_kernels(cuda=True)) the big stage
+functions are compiled once each, on their own (``inline=False``, kept so by ptxas at the
+variant's optimization level: kernel_math.kernel_options). Warp passes a struct by value, and
+an out-of-line call would copy the whole struct into local memory, so the out-of-line copy
+takes each struct argument (Model, State, Control, Scratch) by reference: the address of the
+one-element array holding it (its ``<group>_address`` field, set by the Stepper), whose fields
+NVVM loads only where the function reads them. On the CPU, Warp's compile is fast and the
+functions stay inline.
+
+The two functions are written out as source (Warp compiles a function from its source text)
+and registered with ``linecache`` so that Warp, ``inspect`` and bench.inlining read them as
+any other.
+"""
+
+import ast
+import linecache
+import textwrap
+
+import warp as wp
+
+__all__ = ['apart']
+
+
+def apart(t, f):
+    """``f`` (a Warp function of the types namespace ``t``) where ``t.cuda`` is off; else an
+    inline function of ``f``'s signature that calls ``f``'s out-of-line copy with the
+    addresses of its struct arguments (see the module's docstring)."""
+    if not t.cuda:
+        return f
+    groups = {getattr(t.structs, name): f'{name.lower()}_address' for name in vars(t.structs)}
+    params = list(f.input_types.items())
+    held = [name for name, kind in params if kind in groups]
+    key = f.key.rsplit('__', 1)[-1]
+    returns = ('return ' if any(isinstance(node, ast.Return) and node.value is not None
+                                for node in ast.walk(f.adj.tree)) else '')
+    kinds = {f'kind_{i}': kind for i, (name, kind) in enumerate(params)}
+    outer = ', '.join(f'{name}: kind_{i}' for i, (name, kind) in enumerate(params))
+    inner = ', '.join(f'{name}: wp.uint64' if name in held else f'{name}: kind_{i}'
+                      for i, (name, kind) in enumerate(params))
+    loaded = ', '.join(f'wp.array(ptr={name}, shape=(1,), dtype=kind_{i})[0]' if name in held
+                       else name for i, (name, kind) in enumerate(params))
+    passed = ', '.join(f'{name}.{groups[kind]}' if name in held else name
+                       for name, kind in params)
+    source = textwrap.dedent(f'''\
+        def {key}_apart({inner}):
+            {returns}f({loaded})
+
+        def {key}({outer}):
+            {returns}{key}_apart({passed})
+        ''')
+    filename = f'<out_of_line {f.key}>'
+    linecache.cache[filename] = (len(source), None, source.splitlines(True), filename)
+    scope = {'wp': wp, 'f': f, '__name__': f.func.__module__, **kinds}
+    exec(compile(source, filename, 'exec'), scope)
+    scope[f'{key}_apart'] = wp.func(scope[f'{key}_apart'], inline=False,
+                                    name=f'{f.key}_apart')
+    wrapper = wp.func(scope[key], inline=True, name=f'{f.key}_by_reference')
+    wrapper.__doc__ = f'``{key}`` out of line, its structs by reference ({__name__}).'
+    return wrapper
