@@ -19,7 +19,7 @@ def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, cap
     ref = tmp_path / 'reference.npz'
     assert device_check.main(['reference', str(ref)]) == 0
     with np.load(ref) as data:
-        assert sorted(data.files) == ['arm', 'chain6', 'pendulum']
+        assert sorted(data.files) == ['arm', 'chain6', 'gripper', 'pendulum', 'quadruped']
         assert data['chain6'].shape == (device_check.STEPS, 6)
     capsys.readouterr()
     assert device_check.main(['run', '--device', 'cpu', '--reference', str(ref), '--envs', '1,3',
@@ -28,7 +28,7 @@ def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, cap
     columns = [c.header for c in device_check.COLUMNS]
     assert [(r[0], r[1], r[2]) for r in rows] == [
         (scene, precision, n) for precision in ('float64', 'float32')
-        for scene in ('pendulum', 'chain6', 'arm') for n in ('1', '3')]
+        for scene in ('pendulum', 'chain6', 'arm', 'quadruped', 'gripper') for n in ('1', '3')]
     for row in rows:
         error = float(row[columns.index('largest Δθ vs CPU f64 [rad]')])
         assert float(row[columns.index('batched − single')]) == 0.0
@@ -59,9 +59,9 @@ print(json.dumps([registered, ids(lambda m: m.execs)]))
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True).stdout
     registered, loaded = json.loads(out.strip().splitlines()[-1])
-    # every step kernel variant is registered (precisions × kinds of contact); the run's
-    # scenes, without contact, load the two without contact code, nothing not registered
-    assert len(registered) == 6 and len(loaded) == 2 and set(loaded) <= set(registered)
+    # every step kernel variant is registered (precisions × kinds of contact), and the run's
+    # scenes load every one of them, nothing not registered
+    assert len(registered) == 6 and sorted(loaded) == registered
 
 
 def test_resources_reads_the_step_kernel_cubins_of_each_precision(tmp_path, capsys):

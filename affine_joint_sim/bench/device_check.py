@@ -20,8 +20,11 @@ work is split (``make gpu-prep`` does the first two steps):
 that its registers allow: the predictions to check a GPU run against. ``inlining`` (CPU, no
 compile) prints each variant's functions as NVVM compiles them (``bench.inlining``).
 
-Scenes (dt 0.01, BDF2): ``pendulum`` (one 1 kg 0.1×0.1×1 m link), ``chain6`` (six such links),
-2 N·m on every joint, and the packaged 6-joint ``arm`` (1 N·m on every joint).
+Scenes (BDF2): ``pendulum`` (one 1 kg 0.1×0.1×1 m link), ``chain6`` (six such links), 2 N·m
+on every joint, dt 0.01; the packaged 6-joint ``arm`` (1 N·m on every joint, dt 0.01); with
+contact, so that every step kernel variant runs, the packaged ``quadruped`` folding onto the
+ground without torques (the world, dt 0.001) and the ``gripper`` squeezing its box with 1.5 N
+per finger (pairs of bodies, dt 0.001).
 ``run --device cpu`` runs the same checks on the CPU (the tests do, with small N).
 """
 
@@ -91,10 +94,13 @@ def scenes(precision: str) -> dict:
         return chain_scene(links, link_length=1.0, section=0.1, integrator='bdf2',
                            precision=precision)
 
-    arm = Scene.load(scene_path('arm'))
-    arm = arm.model_copy(update={'solver': arm.solver.model_copy(
-        update={'integrator': 'bdf2', 'precision': precision})})
-    return {'pendulum': (chain(1), 2.0), 'chain6': (chain(6), 2.0), 'arm': (arm, 1.0)}
+    def packaged(name):
+        scene = Scene.load(scene_path(name))
+        return scene.model_copy(update={'solver': scene.solver.model_copy(
+            update={'integrator': 'bdf2', 'precision': precision})})
+
+    return {'pendulum': (chain(1), 2.0), 'chain6': (chain(6), 2.0), 'arm': (packaged('arm'), 1.0),
+            'quadruped': (packaged('quadruped'), 0.0), 'gripper': (packaged('gripper'), 1.5)}
 
 
 def _stepper(scene, torque, device, envs=None, torques=None, said=None):
@@ -113,9 +119,9 @@ def _stepper(scene, torque, device, envs=None, torques=None, said=None):
 
 
 def _angle_errors(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Per step, the largest difference [rad] of two runs' wrapped joint angles (steps, joints)
-    (the checked scenes' joints are all revolute): a joint passing ±π in one run only differs
-    by its distance, not 2π."""
+    """Per step, the largest difference [rad] of two runs' wrapped joint angles (steps, joints):
+    a joint passing ±π in one run only differs by its distance, not 2π (the gripper's
+    prismatic coordinates [m] stay far below π, where the wrap never acts)."""
     return np.max(np.abs(np.remainder(a - b + np.pi, 2.0 * np.pi) - np.pi), axis=-1)
 
 
