@@ -5,8 +5,9 @@ call tree of the Python sources (no compile, milliseconds).
 A call site of a ``wp.func`` is one copy of its body, and of everything that body calls, in
 the function compiled around it; a function marked ``inline=False`` is compiled once on its
 own (``compiled``) and a call to it costs a call. Branches under ``if wp.static(flag):`` follow
-the flag as Warp's code generation does. Calls Warp resolves otherwise (a dispatcher's
-``wp.static`` pick among joint types, builtins) are not followed: they count as statements.
+the flag as Warp's code generation does, and a loop Warp unrolls is a copy of its body per
+value of its variable, so a dispatcher's ``wp.static(kinds[i].f)(...)`` call in a loop over
+the joint types reaches each type's function. Builtins count as statements.
 
 ``python -m affine_joint_sim.bench.device_check inlining`` prints the table of every step
 kernel variant; ``test/test_inlining.py`` bounds it.
@@ -41,65 +42,74 @@ def _is_function(value) -> bool:
 def _calls(function) -> tuple[int, tuple]:
     """(statements of ``function``'s own body, ((a Warp function it calls, its copies), ...)
     per call site); ``function`` a Warp Function or Kernel. A loop Warp unrolls (``_unrolled``)
-    copies its body."""
+    copies its body, once per value of its variable, so that a dispatcher's call of
+    ``wp.static(kinds[i].f)`` reaches each kind's function."""
     source = textwrap.dedent(inspect.getsource(function.func))
     tree = ast.parse(source).body[0]
     names = inspect.getclosurevars(function.func)
     scope = {**names.globals, **names.nonlocals}
     statements, called = 0, []
 
-    def static_value(test):
-        if (isinstance(test, ast.Call) and isinstance(test.func, ast.Attribute)
-                and test.func.attr == 'static' and len(test.args) == 1):
+    def static_value(node, bound):
+        """The value of ``wp.static(expr)`` (``node``) with the unrolled loops' variables
+        ``bound``, or None where ``node`` is no such call or cannot be evaluated."""
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                and node.func.attr == 'static' and len(node.args) == 1):
             try:
-                return bool(eval(compile(ast.Expression(test.args[0]), '<static>', 'eval'),
-                                 {}, scope))
-            except (NameError, AttributeError):
+                return eval(compile(ast.Expression(node.args[0]), '<static>', 'eval'),
+                            {}, {**scope, **bound})
+            except (NameError, AttributeError, IndexError, TypeError):
                 return None
         return None
 
-    def visit(node, times):
+    def visit(node, times, bound):
         nonlocal statements
-        if isinstance(node, ast.If) and static_value(node.test) is not None:
-            for child in (node.body if static_value(node.test) else node.orelse):
-                visit(child, times)
+        if isinstance(node, ast.If) and static_value(node.test, bound) is not None:
+            for child in (node.body if static_value(node.test, bound) else node.orelse):
+                visit(child, times, bound)
             return
         if isinstance(node, ast.stmt):
             statements += times
         if isinstance(node, ast.For):
-            times *= _unrolled(node, scope)
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
-            value = scope.get(node.func.id)
+            values = _unrolled(node, scope)     # (a loop's variable is no constant to it)
+            if values is not None:      # one copy of the body per value
+                visit(node.iter, times, bound)
+                for value in values:
+                    for child in node.body:
+                        visit(child, times, {**bound, node.target.id: value})
+                return
+        if isinstance(node, ast.Call):
+            value = (scope.get(node.func.id) if isinstance(node.func, ast.Name)
+                     else static_value(node.func, bound))
             if _is_function(value):
                 called.append((value, times))
         for child in ast.iter_child_nodes(node):
-            visit(child, times)
+            visit(child, times, bound)
 
     for statement in tree.body:
-        visit(statement, 1)
+        visit(statement, 1, {})
     return statements, tuple(called)
 
 
-def _unrolled(loop: ast.For, scope: dict) -> int:
-    """How many copies of its body Warp's code generation makes for ``loop``: a ``range`` of
-    constants (names of ints in ``scope`` included) is unrolled when it runs at most
-    MAX_UNROLL times and has no ``break`` of its own, or when it holds a ``wp.static``
-    expression; any other loop is one copy."""
+def _unrolled(loop: ast.For, scope: dict):
+    """The values of ``loop``'s variable where Warp's code generation unrolls it (a copy of
+    its body each), else None: a ``range`` of constants (names in ``scope`` and ``wp.static``
+    expressions included) is unrolled when it runs at most MAX_UNROLL times and has no
+    ``break`` of its own, or when it holds a ``wp.static`` expression."""
     iterator = loop.iter
     if not (isinstance(iterator, ast.Call) and isinstance(iterator.func, ast.Name)
-            and iterator.func.id == 'range'):
-        return 1
+            and iterator.func.id == 'range' and isinstance(loop.target, ast.Name)):
+        return None
     try:
-        count = len(eval(compile(ast.Expression(iterator), '<range>', 'eval'),
-                         {'range': range}, {k: v for k, v in scope.items()
-                                            if isinstance(v, int)}))
-    except (NameError, TypeError):
-        return 1
+        values = eval(compile(ast.Expression(iterator), '<range>', 'eval'), {},
+                      {**scope, 'range': range})
+    except (NameError, TypeError, AttributeError):
+        return None
     static = any(isinstance(node, ast.Attribute) and node.attr == 'static'
                  for node in ast.walk(loop))
-    if static or (count <= MAX_UNROLL and not _breaks(loop.body)):
-        return count
-    return 1
+    if static or (len(values) <= MAX_UNROLL and not _breaks(loop.body)):
+        return values
+    return None
 
 
 def _breaks(body: list) -> bool:
