@@ -102,13 +102,21 @@ bench: venv
 # Prepares the GPU check (affine_joint_sim/bench/device_check.py) for a lent GPU machine that has
 # no compiler time to spare and no package index: the workplace's gpu-prep hook packs Warp and
 # compiles every step kernel variant of both precisions for sm_90 ahead of time (0.5–2 min each
-# on 2 cores: README, "Compiling for a GPU"), then the CPU float64 reference trajectories are
-# written beside them. The hook prints the two
-# device calls; the second runs
+# on 2 cores: README, "Compiling for a GPU"). Then the cubins move to where Warp 1.19 reads its
+# cache (<WARP_CACHE_PATH>/<version>/; the hook writes one level up), NVRTC's compile-time traces
+# (10 MB no run reads) go, the URDF scenes' readers join the wheels (pure Python; the device's
+# Python has lxml, numpy and six) and the CPU float64 reference trajectories are written beside
+# them. The hook prints the two device calls; the second runs
 #   python3 -m affine_joint_sim.bench.device_check run --reference .gpu-extra/reference.npz
 GPU_PREP ?= ../shared/hooks/gpu-prep
+WARP_VERSION = $(shell grep -i '^warp-lang==' constraints.txt | cut -d= -f3)
 gpu-prep: venv
-	$(GPU_PREP) --register 'from affine_joint_sim.bench.device_check import register; register()' all
+	$(GPU_PREP) --register 'from affine_joint_sim.bench.device_check import register; register()' \
+	    $$($(PY) -m affine_joint_sim.bench.device_check modules)
+	cd .gpu-extra/kernels && mkdir -p $(WARP_VERSION) && mv wp_* $(WARP_VERSION)/ \
+	    && rm -f */*/*compile-time-trace*
+	$(PY) -m pip download -q --no-deps -d .gpu-extra/wheels \
+	    $$(grep -i '^yourdfpy==\|^trimesh==' constraints.txt)
 	$(PY) -m affine_joint_sim.bench.device_check reference .gpu-extra/reference.npz
 
 # Re-resolves every dependency to its newest allowed version in a scratch venv and pins the

@@ -64,6 +64,21 @@ print(json.dumps([registered, ids(lambda m: m.execs)]))
     assert len(registered) == 6 and sorted(loaded) == registered
 
 
+def test_gpu_prep_compiles_the_gpu_variants_and_not_the_cpu_pipelines_they_build(capsys):
+    from warp._src.context import user_modules
+
+    device_check.register()
+    built = {name for name, module in user_modules.items() if module.kernels}
+    assert device_check.main(['modules']) == 0
+    names = capsys.readouterr().out.split()
+    gpu = [t.step.module.name for _, _, t in device_check.step_variants()]
+    cpu = {t.step.module.name for _, _, t in device_check.step_variants(cuda=False)}
+    # the GPU variants take their structs from the CPU pipelines, which registers those too:
+    # compiled for sm_90 as well, all inlined, each would take NVRTC over ten minutes
+    assert names == gpu and len(set(names)) == 6
+    assert built & cpu and not cpu & set(names)
+
+
 def test_resources_reads_the_step_kernel_cubins_of_each_precision(tmp_path, capsys):
     import warp as wp
 
@@ -72,7 +87,7 @@ def test_resources_reads_the_step_kernel_cubins_of_each_precision(tmp_path, caps
 
     (cubin,) = wp.compile_aot_module(doubled.module, arch=90, module_dir=tmp_path / 'build')
     module = step_kernels(wp.float64, cuda=True).step.module
-    folder = tmp_path / 'cache' / module.get_module_identifier()
+    folder = tmp_path / 'cache' / wp.config.version / module.get_module_identifier()
     folder.mkdir(parents=True)
     (folder / cubin.name).write_bytes(cubin.read_bytes())    # stands in for the step kernel
     (row,) = device_check.resources(tmp_path / 'cache')

@@ -37,7 +37,7 @@ import numpy as np
 
 from affine_joint_sim.bench.report import Column, markdown_row, markdown_table
 
-__all__ = ['ENVS', 'STEPS', 'register', 'scenes', 'reference', 'check', 'main']
+__all__ = ['ENVS', 'STEPS', 'register', 'modules', 'scenes', 'reference', 'check', 'main']
 
 ENVS = (1, 1024, 16384, 65536, 262144)
 STEPS = 300
@@ -82,6 +82,13 @@ def register(cuda: bool = True) -> None:
     """Build every step kernel a Stepper on a GPU (``cuda``; else on the CPU) loads."""
     for _ in step_variants(cuda):
         pass
+
+
+def modules() -> list[str]:
+    """The Warp module names of the GPU step kernel variants: what ``make gpu-prep`` compiles.
+    Building them builds the CPU pipelines too (their structs), whose step kernels, all
+    inlined, are no GPU's to load and would take NVRTC over ten minutes each."""
+    return [t.step.module.name for _, _, t in step_variants()]
 
 
 def scenes(precision: str) -> dict:
@@ -245,13 +252,14 @@ def warps_per_sm(registers: int) -> int:
 
 def resources(cache_dir) -> list[dict]:
     """Per precision and pair kind, the resources of the GPU step kernel's cubins under
-    ``cache_dir`` (Warp's kernel cache layout: one folder per module identifier)."""
+    ``cache_dir`` (Warp's kernel cache layout: one folder per module identifier, under a
+    folder per Warp version or not)."""
     from affine_joint_sim.bench.cubin import kernel_resources
 
     rows = []
     for precision, contact, t in step_variants():
-        folder = Path(cache_dir, t.step.module.get_module_identifier())
-        for path in sorted(folder.glob('*.cubin')):
+        ident = t.step.module.get_module_identifier()
+        for path in sorted(Path(cache_dir).glob(f'**/{ident}/*.cubin')):
             for kernel in kernel_resources(path):
                 warps = warps_per_sm(kernel.registers)
                 rows.append({'precision': precision, 'contact': contact, 'cubin': path.name,
@@ -301,6 +309,8 @@ def main(argv=None) -> int:
     ref.add_argument('out', type=Path)
     res = phases.add_parser('resources', help='registers, stack and code of the step kernels')
     res.add_argument('dir', type=Path, nargs='?', default=Path('.gpu-extra/kernels'))
+    phases.add_parser('modules', help='the Warp module names of the GPU step kernels, '
+                      'one line (what make gpu-prep compiles)')
     phases.add_parser('inlining', help='the GPU step kernels with their calls inlined (no '
                       'compile): statements and copies of the contact distance per function')
     run = phases.add_parser('run', help='every check on --device, one table')
@@ -319,6 +329,9 @@ def main(argv=None) -> int:
         return 0
     if args.phase == 'resources':
         print(_resource_table(args.dir))
+        return 0
+    if args.phase == 'modules':
+        print(' '.join(modules()))
         return 0
     if args.phase == 'inlining':
         print(markdown_table(inlining(), INLINING_COLUMNS))
