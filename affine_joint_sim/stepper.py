@@ -148,7 +148,8 @@ class Stepper:
             self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs,
                                cuda=self.device.is_cuda or self._gpu_variant_on_cpu,
-                               contact=bool(self._host.has_contact))
+                               contact=bool(self._host.has_contact),
+                               shapes=self._host.has_static_shapes)
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
         # a joint's index by name, and the joints that take a command: a control loop sets
         # torques by name every step, so these are looked up, not searched

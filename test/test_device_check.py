@@ -19,7 +19,9 @@ def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, cap
     ref = tmp_path / 'reference.npz'
     assert device_check.main(['reference', str(ref)]) == 0
     with np.load(ref) as data:
-        assert sorted(data.files) == ['arm', 'chain6', 'gripper', 'pendulum', 'quadruped']
+        assert sorted(data.files) == ['arm', 'chain6', 'gripper', 'pendulum', 'quadruped',
+                                      'ramp']
+        assert data['ramp'].shape == (device_check.STEPS, 6)     # two bodies' positions
         assert data['chain6'].shape == (device_check.STEPS, 6)
     capsys.readouterr()
     assert device_check.main(['run', '--device', 'cpu', '--reference', str(ref), '--envs', '1,3',
@@ -28,9 +30,10 @@ def test_the_check_prints_one_table_of_every_scene_precision_and_n(tmp_path, cap
     columns = [c.header for c in device_check.COLUMNS]
     assert [(r[0], r[1], r[2]) for r in rows] == [
         (scene, precision, n) for precision in ('float64', 'float32')
-        for scene in ('pendulum', 'chain6', 'arm', 'quadruped', 'gripper') for n in ('1', '3')]
+        for scene in ('pendulum', 'chain6', 'arm', 'quadruped', 'ramp', 'gripper')
+        for n in ('1', '3')]
     for row in rows:
-        error = float(row[columns.index('largest Δθ vs CPU f64 [rad]')])
+        error = float(row[columns.index('largest Δq vs CPU f64 [rad, m]')])
         assert float(row[columns.index('batched − single')]) == 0.0
         assert float(row[columns.index('env-steps/s')]) > 0
         agreeing = int(row[columns.index('steps within 1e-09')])
@@ -61,7 +64,7 @@ print(json.dumps([registered, ids(lambda m: m.execs)]))
     registered, loaded = json.loads(out.strip().splitlines()[-1])
     # every step kernel variant is registered (precisions × kinds of contact), and the run's
     # scenes load every one of them, nothing not registered
-    assert len(registered) == 6 and sorted(loaded) == registered
+    assert len(registered) == 8 and sorted(loaded) == registered
 
 
 def test_gpu_prep_compiles_the_gpu_variants_and_not_the_cpu_pipelines_they_build(capsys):
@@ -75,7 +78,7 @@ def test_gpu_prep_compiles_the_gpu_variants_and_not_the_cpu_pipelines_they_build
     cpu = {t.step.module.name for _, _, t in device_check.step_variants(cuda=False)}
     # the GPU variants take their structs from the CPU pipelines, which registers those too:
     # compiled for sm_90 as well, all inlined, each would take NVRTC over ten minutes
-    assert names == gpu and len(set(names)) == 6
+    assert names == gpu and len(set(names)) == 8
     assert built & cpu and not cpu & set(names)
 
 

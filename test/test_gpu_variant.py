@@ -17,13 +17,14 @@ class _GpuVariant(Stepper):
     _gpu_variant_on_cpu = True
 
 
-@pytest.mark.parametrize('name, contact', [('arm', 'none'), ('quadruped', 'world'),
-                                           ('stack', 'bodies')])
+@pytest.mark.parametrize('name, contact', [('arm', 'none'), ('quadruped', 'half-spaces'),
+                                           ('ramp', 'world'), ('stack', 'bodies')])
 def test_the_gpu_variant_steps_the_same_bits_on_the_cpu(name, contact):
     scene = Scene.from_yaml(SCENES / f'{name}.yaml')
     cpu, gpu = Stepper(scene), _GpuVariant(scene)
     assert gpu._k.cuda and not cpu._k.cuda
-    assert (gpu._k.contact, gpu._k.bodies) == (contact != 'none', contact == 'bodies')
+    assert (gpu._k.contact, gpu._k.shapes, gpu._k.bodies) == (
+        contact != 'none', contact in ('world', 'bodies'), contact == 'bodies')
     for step in range(80):
         cpu.step()
         gpu.step()

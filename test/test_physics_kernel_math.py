@@ -54,3 +54,19 @@ def test_sin_and_atan2_are_within_a_few_ulps(scalar, sin_ulps, atan2_ulps):
                 (ys, xs)
     # (−π, π]: the negative x axis is +π whatever the sign of zero; (0, 0) is 0
     assert atan2[-4] == atan2[-3] == dtype(math.pi) and atan2[-2] == 0.0
+
+
+def test_the_kernel_salt_digests_the_step_kernels_sources_and_no_host_code():
+    from affine_joint_sim.physics import kernels
+    from affine_joint_sim.physics.kernel_math import kernel_sources
+
+    names = {path.name for path in kernel_sources((kernels.precision, *kernels._STAGES))}
+    # the joint types' modules (imported by name), the field tables the stages import, the
+    # portable math outside physics/
+    assert {'revolute.py', 'prismatic.py', 'fixed.py', 'joint_kinds.py', 'fields.py',
+            'contact_geometry.py', 'precision.py', 'portable_math.py'} <= names
+    # editing the host's model build, the report or sensor kernels, or the package's entry
+    # points keeps every compiled step kernel
+    assert not names & {'model.py', 'contact_model.py', 'pair_geometry.py', 'static_shapes.py',
+                        'report.py', 'sensing.py', 'frames.py', 'kernels.py', 'stepper.py',
+                        '__main__.py', 'scene.py'}

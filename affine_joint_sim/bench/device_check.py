@@ -23,8 +23,9 @@ compile) prints each variant's functions as NVVM compiles them (``bench.inlining
 Scenes (BDF2): ``pendulum`` (one 1 kg 0.1×0.1×1 m link), ``chain6`` (six such links), 2 N·m
 on every joint, dt 0.01; the packaged 6-joint ``arm`` (1 N·m on every joint, dt 0.01); with
 contact, so that every step kernel variant runs, the packaged ``quadruped`` folding onto the
-ground without torques (the world, dt 0.001) and the ``gripper`` squeezing its box with 1.5 N
-per finger (pairs of bodies, dt 0.001).
+ground without torques (half-spaces, dt 0.001), the ``ramp``'s box sliding down a fixed box (a
+static shape, dt 0.01; no joints: its bodies' positions are compared) and the ``gripper``
+squeezing its box with 1.5 N per finger (pairs of bodies, dt 0.001).
 ``run --device cpu`` runs the same checks on the CPU (the tests do, with small N).
 """
 
@@ -54,16 +55,17 @@ COLUMNS = [Column('scene', 'scene'), Column('precision', 'precision'), Column('e
            Column('graph_us_per_step', 'graph µs/step', '{:.3g}'),
            Column('graph_env_steps_per_s', 'graph env-steps/s', '{:.3g}'),
            Column('newton_iterations', 'Newton it./step', '{:.3g}'),
-           Column('error', 'largest Δθ vs CPU f64 [rad]', '{:.3g}'),
+           Column('error', 'largest Δq vs CPU f64 [rad, m]', '{:.3g}'),
            Column('agreeing_steps', f'steps within {AGREE:g}', '{}'),
            Column('batched_minus_single', 'batched − single', '{:.3g}'),
            Column('note', 'note')]
 
 
 # The step kernel variants a Stepper may load (kernels.step_kernels), by the contact a scene
-# has: none, with the world only, or between moving bodies too
-VARIANTS = (('none', {'contact': False}), ('world', {'bodies': False}),
-            ('bodies', {'bodies': True}))
+# has: none, points on half-spaces only, with static shapes and meshes too, or between moving
+# bodies too
+VARIANTS = (('none', {'contact': False}), ('half-spaces', {'shapes': False}),
+            ('world', {'bodies': False}), ('bodies', {'bodies': True}))
 
 
 def step_variants(cuda: bool = True):
@@ -107,7 +109,8 @@ def scenes(precision: str) -> dict:
             update={'integrator': 'bdf2', 'precision': precision})})
 
     return {'pendulum': (chain(1), 2.0), 'chain6': (chain(6), 2.0), 'arm': (packaged('arm'), 1.0),
-            'quadruped': (packaged('quadruped'), 0.0), 'gripper': (packaged('gripper'), 1.5)}
+            'quadruped': (packaged('quadruped'), 0.0), 'ramp': (packaged('ramp'), 0.0),
+            'gripper': (packaged('gripper'), 1.5)}
 
 
 def _stepper(scene, torque, device, envs=None, torques=None, said=None):
@@ -140,11 +143,20 @@ def _agreeing_steps(errors: np.ndarray) -> int:
     return int(over[0]) if over.size else len(errors)
 
 
+def _coordinates(sim) -> np.ndarray:
+    """The joint coordinates (envs…, joints) [rad, m], or of a scene without joints its bodies'
+    positions (envs…, 3·bodies) [m]."""
+    if sim.joint_names:
+        return sim.angles.copy()
+    q = np.array(sim.body_q)
+    return q[..., :3].reshape(*q.shape[:-2], -1)
+
+
 def _trajectory(sim, steps: int) -> np.ndarray:
     out = []
     for _ in range(steps):
         sim.step()
-        out.append(sim.angles.copy())
+        out.append(_coordinates(sim))
     return np.array(out)
 
 

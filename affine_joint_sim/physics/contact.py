@@ -56,6 +56,7 @@ def build(t) -> SimpleNamespace:
     arrival, stiff = scalar(1.0 - ARRIVING), scalar(STIFF)
     impact_acceleration, impact_share = scalar(IMPACT_ACCELERATION), scalar(IMPACT_SHARE)
     bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
+    shapes = t.shapes       # static shapes, meshes, their edges and vertices compiled in
     infinity = scalar(float('inf'))
 
     @wp.func(inline=True)
@@ -366,27 +367,31 @@ def build(t) -> SimpleNamespace:
             reach = model.contact_d_hat + scratch.body_margin[env, b]
             x = world_point(scratch.q_n[env, b], model.point_rest[i])
             for g in range(things):
-                if model.pair_on[i * things + g] != 0 and not triangle_far(
-                        model, g - planes, x, model.point_radius[i] + reach):
-                    d, n = distance(model, scratch.q_n[env, b], i, g)
-                    if d < reach:
-                        scratch.near_pairs[env, at] = i * things + g
-                        at += 1
-        statics_e = model.static_edge_a.shape[0]
-        edges = model.edge_body.shape[0]
-        for e in range(edges):
-            b = model.edge_body[e]
-            middle, size = edge_ball(model, scratch.q_n[env, b], e)
-            at = gather_static(model, scratch, env, model.surface_edge_end, 1, middle, size,
-                               model.contact_d_hat + scratch.body_margin[env, b],
-                               first + e * statics_e, at)
-        statics_v = model.static_vertex.shape[0]
-        for f in range(model.face_body.shape[0]):
-            b = model.face_body[f]
-            centre, size = face_ball(scratch.q_n[env, b], model.face_rest[f])
-            at = gather_static(model, scratch, env, model.surface_vertex_end, 0, centre, size,
-                               model.contact_d_hat + scratch.body_margin[env, b],
-                               first + edges * statics_e + f * statics_v, at)
+                if model.pair_on[i * things + g] != 0:
+                    far = False
+                    if wp.static(shapes):
+                        far = triangle_far(model, g - planes, x, model.point_radius[i] + reach)
+                    if not far:
+                        d, n = distance(model, scratch.q_n[env, b], i, g)
+                        if d < reach:
+                            scratch.near_pairs[env, at] = i * things + g
+                            at += 1
+        if wp.static(shapes):
+            statics_e = model.static_edge_a.shape[0]
+            edges = model.edge_body.shape[0]
+            for e in range(edges):
+                b = model.edge_body[e]
+                middle, size = edge_ball(model, scratch.q_n[env, b], e)
+                at = gather_static(model, scratch, env, model.surface_edge_end, 1, middle,
+                                   size, model.contact_d_hat + scratch.body_margin[env, b],
+                                   first + e * statics_e, at)
+            statics_v = model.static_vertex.shape[0]
+            for f in range(model.face_body.shape[0]):
+                b = model.face_body[f]
+                centre, size = face_ball(scratch.q_n[env, b], model.face_rest[f])
+                at = gather_static(model, scratch, env, model.surface_vertex_end, 0, centre,
+                                   size, model.contact_d_hat + scratch.body_margin[env, b],
+                                   first + edges * statics_e + f * statics_v, at)
         if wp.static(bodies):
             at = gather_bodies(model, scratch, env, at)
         return at - start
@@ -892,7 +897,7 @@ def build(t) -> SimpleNamespace:
                     rate = wp.dot(jacobian_transpose(rest, n), scratch.dq[env, body])
                     if rate < zero:
                         alpha = wp.min(alpha, keep * d / (-rate))
-                else:
+                elif wp.static(shapes):
                     alpha = wp.min(alpha, advance_bound(model, scratch, env, p, body, other))
         return alpha
 

@@ -31,6 +31,7 @@ def build(t) -> SimpleNamespace:
     Model = t.structs.Model
     world_point, affine = t.world_point, t.affine
     bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
+    shapes = t.shapes       # static shapes, meshes, their edges and vertices compiled in
 
     @wp.func
     def sign_of(x: scalar):
@@ -149,11 +150,12 @@ def build(t) -> SimpleNamespace:
         direction n in which it grows fastest)."""
         x = world_point(q, model.point_rest[i])
         planes = model.plane_offset.shape[0]
-        if g < planes:
-            return (wp.dot(model.plane_normal[g], x) - model.plane_offset[g]
-                    - model.point_radius[i]), model.plane_normal[g]
-        d, n = shape_separation(model, x, g - planes)
-        return d - model.point_radius[i], n
+        if wp.static(shapes):
+            if g >= planes:
+                d, n = shape_separation(model, x, g - planes)
+                return d - model.point_radius[i], n
+        return (wp.dot(model.plane_normal[g], x) - model.plane_offset[g]
+                - model.point_radius[i]), model.plane_normal[g]
 
     @wp.func(inline=True)
     def statics(model: Model):
@@ -372,19 +374,20 @@ def build(t) -> SimpleNamespace:
         zero where it is static). A point's x̄ is its own; an edge's the nearest point of its
         segment; a face's the nearest point of its triangle. Each family but the points has a
         function of its own: the point pairs, the most common, stay a short call."""
-        if p < point_pairs(model):
-            i = p / statics(model)
-            d, n = distance(model, q, i, p - i * statics(model))
-            return d, n, model.point_rest[i], model.point_radius[i], vec3(zero, zero, zero), zero
-        if p < point_pairs(model) + edge_pairs(model):
-            return static_edge_gap(model, q, p - point_pairs(model))
-        if wp.static(bodies):
-            if p >= static_pairs(model):
-                family, first, second = body_pair(model, p)
-                if family == 0:
-                    return body_face_gap(model, q, q_other, first, second)
-                return body_edge_gap(model, q, q_other, first, second)
-        return static_vertex_gap(model, q, p - point_pairs(model) - edge_pairs(model))
+        if wp.static(shapes):
+            if p >= point_pairs(model):
+                if p < point_pairs(model) + edge_pairs(model):
+                    return static_edge_gap(model, q, p - point_pairs(model))
+                if wp.static(bodies):
+                    if p >= static_pairs(model):
+                        family, first, second = body_pair(model, p)
+                        if family == 0:
+                            return body_face_gap(model, q, q_other, first, second)
+                        return body_edge_gap(model, q, q_other, first, second)
+                return static_vertex_gap(model, q, p - point_pairs(model) - edge_pairs(model))
+        i = p / statics(model)
+        d, n = distance(model, q, i, p - i * statics(model))
+        return d, n, model.point_rest[i], model.point_radius[i], vec3(zero, zero, zero), zero
 
     # called from some thirty places: out of line on a GPU (physics.out_of_line)
     gap = apart(t, pair_gap)
@@ -424,13 +427,14 @@ def build(t) -> SimpleNamespace:
         the step, like friction). Two near-parallel edges have no single nearest pair; their
         ends' points and faces carry the contact."""
         weight = one
-        if p >= point_pairs(model) and p < point_pairs(model) + edge_pairs(model):
-            k = p - point_pairs(model)
-            e = k / model.static_edge_a.shape[0]
-            s = k - e * model.static_edge_a.shape[0]
-            own = model.edge_b[e] - model.edge_a[e]
-            other = model.static_edge_b[s] - model.static_edge_a[s]
-            weight = mollifier(own, affine(q_n) @ own, other, other)
+        if wp.static(shapes):
+            if p >= point_pairs(model) and p < point_pairs(model) + edge_pairs(model):
+                k = p - point_pairs(model)
+                e = k / model.static_edge_a.shape[0]
+                s = k - e * model.static_edge_a.shape[0]
+                own = model.edge_b[e] - model.edge_a[e]
+                other = model.static_edge_b[s] - model.static_edge_a[s]
+                weight = mollifier(own, affine(q_n) @ own, other, other)
         if wp.static(bodies):
             if p >= static_pairs(model):
                 family, e, s = body_pair(model, p)

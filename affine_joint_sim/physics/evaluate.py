@@ -43,7 +43,7 @@ def _probe_kernel(t):
               energy_out: wp.array(dtype=scalar), coordinate_out: wp.array(dtype=scalar),
               parent_gradient_out: wp.array(dtype=vec12),
               child_gradient_out: wp.array(dtype=vec12), q_out: wp.array(dtype=vec12)):
-        wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
+        wp.static(salt)     # its sources' digest, in the module hash (kernel_math)
         if which == ENERGY or which == NEWTON_SYSTEM:   # the edge and face pairs near q
             for b in range(q.shape[1]):
                 scratch.body_margin[0, b] = model.contact_d_hat

@@ -12,7 +12,10 @@ keeping the host's vector width: vector lanes round exactly like scalars, so onl
 changed bits. The fma() that Warp's matrix products call is rounded once on every machine.
 """
 
+import ast
 import hashlib
+import importlib
+import importlib.util
 import math
 from pathlib import Path
 from types import SimpleNamespace
@@ -23,7 +26,7 @@ from affine_joint_sim.portable_math import (ATAN_COEFFICIENTS, COS_COEFFICIENTS,
                                             LN2_HI, LN2_LO, LOG_COEFFICIENTS,
                                             SIN_COEFFICIENTS, TAN_PI_8, half_pi_parts)
 
-__all__ = ['build', 'kernel_options', 'source_salt']
+__all__ = ['build', 'kernel_options', 'kernel_sources', 'source_salt']
 
 # No contraction of a·b + c into one FMA by the front end (Warp's fuse_fp=False stops the back
 # end): an FMA only where the code asks for one (fma(), which is exactly rounded everywhere).
@@ -46,21 +49,61 @@ def kernel_options(cuda: bool = False) -> dict:
             **({'optimization_level': 2, 'compile_time_trace': True} if cuda else {})}
 
 
-def source_salt() -> int:
-    """A 28-bit digest of every source file of ``affine_joint_sim.physics``, for the kernels to
+def kernel_sources(modules) -> list[Path]:
+    """The source files a kernel is built from: those of ``modules`` (of a package, every file
+    in its folder: the joint types' modules are imported by name) and of every module of this
+    project they import, transitively (read from their import statements)."""
+    files = set()
+    todo = [file for module in modules for file in _files(Path(module.__file__))]
+    while todo:
+        file = todo.pop()
+        if file not in files:
+            files.add(file)
+            todo.extend(Path(module.__file__) for module in _imported(file))
+    return sorted(files)
+
+
+def _files(path: Path) -> list[Path]:
+    """A module's source file, or a package's every file."""
+    return sorted(path.parent.glob('*.py')) if path.name == '__init__.py' else [path]
+
+
+def _imported(file: Path) -> list:
+    """The modules of this project that the source ``file`` imports (``from a import b``: b
+    where it is a module, else a)."""
+    names = []
+    for node in ast.walk(ast.parse(file.read_text())):
+        if isinstance(node, ast.Import):
+            names += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names += [f'{node.module}.{alias.name}' if _is_module(f'{node.module}.{alias.name}')
+                      else node.module for alias in node.names]
+    own = __name__.split('.')[0]
+    return [importlib.import_module(name) for name in set(names) if name.split('.')[0] == own]
+
+
+def _is_module(name: str) -> bool:
+    try:
+        return importlib.util.find_spec(name) is not None
+    except ModuleNotFoundError:         # a name a module defines, not a module
+        return False
+
+
+def source_salt(modules) -> int:
+    """A 28-bit digest of the sources a kernel is built from (``kernel_sources``), for it to
     name (``wp.static(source_salt)``). Warp's module hash misses the functions a dispatcher
     picks by ``wp.static`` inside a loop over types (it keys them by the expression's text), so
     a changed joint type kept loading the kernel compiled before the change from Warp's cache;
-    with the salt, any change to the physics recompiles the kernels."""
+    with the salt, any change to those sources recompiles the kernel, and a change to any other
+    file (the host's model build, the report's or the sensors' kernel) keeps it."""
     digest = hashlib.sha256()
-    for path in sorted(Path(__file__).parent.rglob('*.py')):
+    for path in kernel_sources(modules):
         digest.update(path.read_bytes())
     return int(digest.hexdigest()[:7], 16)
 
 
 def build(t) -> SimpleNamespace:
-    """sin, atan2, the kernel module options and the source salt for the types namespace
-    ``t``."""
+    """sin, atan2 and the kernel module options for the types namespace ``t``."""
     scalar, zero, one, four = t.scalar, t.zero, t.one, t.four
     two = t.two
     # π/2 in three parts whose products with the quadrant number are exact in this precision
@@ -148,5 +191,4 @@ def build(t) -> SimpleNamespace:
             l13 + z * (l15 + z * (l17 + z * (l19 + z * (l21 + z * l23)))))))))))
         return (k * ln2_lo + series) + k * ln2_hi
 
-    return SimpleNamespace(sin=sin, atan2=atan2, log=log, kernel_options=kernel_options(t.cuda),
-                           source_salt=source_salt())
+    return SimpleNamespace(sin=sin, atan2=atan2, log=log, kernel_options=kernel_options(t.cuda))

@@ -10,16 +10,17 @@ function is an attribute of the returned namespace, so tests can launch a stage 
 (``physics.evaluate``).
 """
 
+import functools
 from types import SimpleNamespace
 
 import warp as wp
 
 from affine_joint_sim.physics import (affine, assemble, commands, commit, contact,
                                       contact_geometry, coupled_solve, frames, joint_terms,
-                                      joints, kernel_math, newton, ortho, potential, prediction,
-                                      report, sensing, step, tree_solve)
+                                      joints, kernel_math, newton, ortho, potential, precision,
+                                      prediction, report, sensing, step, tree_solve)
 from affine_joint_sim.physics.fields import structs
-from affine_joint_sim.physics.precision import types_for
+from affine_joint_sim.physics.kernel_math import source_salt
 
 __all__ = ['step_kernels', 'scalar_of', 'frame_kernel', 'report_kernel', 'sensor_kernel']
 
@@ -32,27 +33,39 @@ _REPORTS = {}
 _SENSORS = {}
 
 
-def step_kernels(scalar, bodies: bool = False, cuda: bool = False,
-                 contact: bool = True) -> SimpleNamespace:
+def step_kernels(scalar, bodies: bool = False, cuda: bool = False, contact: bool = True,
+                 shapes: bool = True) -> SimpleNamespace:
     """Types, structs, stage functions and the step kernel for ``scalar``, per kind of contact,
     each a kernel module of its own: without ``contact`` the step holds no contact code at all
-    (``t.contact``); with ``bodies``, the pipeline whose contact includes pairs of moving
-    bodies (and the coupled solve), so a scene whose bodies never touch each other runs code
-    without any of it (``t.bodies``; both compile-time switches of the stages). With ``cuda``,
-    the functions a GPU compile keeps out of line (``t.cuda``). The structs are the CPU
-    pipeline's of the same pair kind (``bodies``) whatever ``cuda`` and ``contact``, so the
-    report, frame and sensor kernels built from that pipeline take any of its variants."""
-    bodies = bool(bodies) and bool(contact)
-    key = (scalar, bodies, bool(cuda), bool(contact))
+    (``t.contact``); without ``shapes``, only the contact of points with half-spaces (no static
+    shapes, meshes, edges or vertices: ``t.shapes``); with ``bodies``, the pipeline whose
+    contact includes pairs of moving bodies (and the coupled solve) besides every static
+    thing, so a scene whose bodies never touch each other runs code without any of it
+    (``t.bodies``; all three compile-time switches of the stages). With ``cuda``, the
+    functions a GPU compile keeps out of line (``t.cuda``). The structs are the CPU
+    pipeline's of the same pair kind (``bodies``, every static thing) whatever ``cuda``,
+    ``contact`` and ``shapes``, so the report, frame and sensor kernels built from that
+    pipeline take any of its variants."""
+    contact = bool(contact)
+    bodies = bool(bodies) and contact
+    shapes = (bool(shapes) or bodies) and contact
+    key = (scalar, bodies, bool(cuda), contact, shapes)
     if key not in _BUILT:
-        t = types_for(scalar)
-        t.bodies, t.cuda, t.contact = bodies, bool(cuda), bool(contact)
-        own = not cuda and contact
+        t = precision.types_for(scalar)
+        t.bodies, t.cuda, t.contact, t.shapes = bodies, bool(cuda), contact, shapes
+        t.source_salt = _salt()
+        own = not cuda and shapes
         t.structs = structs(t) if own else step_kernels(scalar, bodies).structs
         for stage in _STAGES:
             vars(t).update(vars(stage.build(t)))
         _BUILT[key] = t
     return _BUILT[key]
+
+
+@functools.cache
+def _salt() -> int:
+    """The digest of the sources the step kernel is built from (kernel_math.source_salt)."""
+    return source_salt((precision, *_STAGES))
 
 
 def scalar_of(precision: str):

@@ -62,6 +62,12 @@ class HostModel:
         return len(self.touch_a) > 0
 
     @property
+    def has_static_shapes(self) -> bool:
+        """Whether contact meets more than half-spaces: static shapes, meshes, their edges or
+        vertices (the step kernel without them: ``kernels.step_kernels``)."""
+        return len(self.shape_kind) + len(self.static_edge_a) + len(self.static_vertex) > 0
+
+    @property
     def pair_count(self) -> int:
         """Contact pairs numbered (physics.fields ``pair``)."""
         return pair_total(vars(self))

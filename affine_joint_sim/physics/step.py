@@ -33,7 +33,7 @@ def build(t) -> SimpleNamespace:
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def step(model: Model, state: State, control: Control, scratch: Scratch, first_env: int,
              chunk: int):
-        wp.static(salt)     # the physics sources' digest, in the module hash (kernel_math)
+        wp.static(salt)     # its sources' digest, in the module hash (kernel_math)
         env = first_env + wp.tid()
         bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 0)
         predict(model, state, scratch, env, bdf2, force_scale)
