@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from affine_joint_sim.physics.evaluate import Stages
-from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_distance
+from affine_joint_sim.physics.contact_kinds import BOX, CAPSULE, CYLINDER, SPHERE
+from affine_joint_sim.physics.static_shapes import shape_distance
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper
@@ -36,20 +37,20 @@ def test_shape_distances_match_their_closed_forms():
     def at(local):
         return centre + turn @ np.asarray(local, float)
 
-    box = (SHAPE_KINDS['box'], turn, centre, [0.2, 0.1, 0.05])
+    box = (BOX.code, turn, centre, [0.2, 0.1, 0.05])
     assert shape_distance(*box, at([0.3, 0.0, 0.0])) == pytest.approx(0.1)          # face
     assert shape_distance(*box, at([0.3, 0.2, 0.0])) == pytest.approx(math.hypot(0.1, 0.1))
     assert shape_distance(*box, at([0.3, 0.2, 0.1])) == pytest.approx(
         math.sqrt(0.01 + 0.01 + 0.0025))                                          # corner
     assert shape_distance(*box, at([0.0, 0.0, 0.04])) == pytest.approx(-0.01)     # inside
-    capsule = (SHAPE_KINDS['capsule'], turn, centre, [0.05, 0.2, 0.0])
+    capsule = (CAPSULE.code, turn, centre, [0.05, 0.2, 0.0])
     assert shape_distance(*capsule, at([0.1, 0.0, 0.1])) == pytest.approx(0.05)
     assert shape_distance(*capsule, at([0.0, 0.0, 0.35])) == pytest.approx(0.1)
-    cylinder = (SHAPE_KINDS['cylinder'], turn, centre, [0.05, 0.2, 0.0])
+    cylinder = (CYLINDER.code, turn, centre, [0.05, 0.2, 0.0])
     assert shape_distance(*cylinder, at([0.0, 0.0, 0.3])) == pytest.approx(0.1)    # end face
     assert shape_distance(*cylinder, at([0.0, 0.08, 0.0])) == pytest.approx(0.03)  # side
     assert shape_distance(*cylinder, at([0.08, 0.0, 0.24])) == pytest.approx(0.05)  # rim
-    sphere = (SHAPE_KINDS['sphere'], turn, centre, [0.05, 0.0, 0.0])
+    sphere = (SPHERE.code, turn, centre, [0.05, 0.0, 0.0])
     assert shape_distance(*sphere, at([0.0, 0.06, 0.08])) == pytest.approx(0.05)
 
 

@@ -19,6 +19,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.contact_kinds import TRIANGLE
 
 __all__ = ['ADVANCE_STEPS', 'ARRIVING', 'IMPACT_ACCELERATION', 'IMPACT_SHARE',
            'RELEASE_HALVINGS', 'STEP_SLACK', 'STIFF', 'build']
@@ -57,6 +58,7 @@ def build(t) -> SimpleNamespace:
     impact_acceleration, impact_share = scalar(IMPACT_ACCELERATION), scalar(IMPACT_SHARE)
     bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
     shapes = t.shapes       # static shapes, meshes, their edges and vertices compiled in
+    triangle = TRIANGLE.code
     infinity = scalar(float('inf'))
 
     @wp.func(inline=True)
@@ -296,7 +298,7 @@ def build(t) -> SimpleNamespace:
         its centroid is farther than ``reach_`` [m] from the point x."""
         far = False
         if s >= 0:
-            if model.shape_kind[s] == 5:
+            if model.shape_kind[s] == triangle:
                 far = wp.length(x - model.shape_center[s]) - model.shape_size[s][0] >= reach_
         return far
 

@@ -20,6 +20,8 @@ from types import SimpleNamespace
 import warp as wp
 
 from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.contact_kinds import (BOX, CAPSULE, CYLINDER, EDGE_EDGE,
+                                                    POINT_FACE, TRIANGLE)
 
 __all__ = ['build']
 
@@ -32,6 +34,8 @@ def build(t) -> SimpleNamespace:
     world_point, affine = t.world_point, t.affine
     bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
     shapes = t.shapes       # static shapes, meshes, their edges and vertices compiled in
+    box, capsule, cylinder, triangle = BOX.code, CAPSULE.code, CYLINDER.code, TRIANGLE.code
+    point_face, edge_edge = POINT_FACE.code, EDGE_EDGE.code
 
     @wp.func
     def sign_of(x: scalar):
@@ -80,12 +84,13 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def shape_separation(model: Model, x: vec3, s: int):
         """(signed distance [m] of the world point x to shape s's surface, negative inside;
-        its unit outward direction n, the distance's gradient in x). A triangle (kind 5, its
-        vertices the columns of shape_rotation) has no inside: its distance is ≥ 0."""
+        its unit outward direction n, the distance's gradient in x). A triangle (its vertices
+        the columns of shape_rotation) has no inside: its distance is ≥ 0; a sphere's and a
+        capsule's is that from their axis segment (any other kind is taken as a sphere)."""
         rot = model.shape_rotation[s]
         size = model.shape_size[s]
         kind = model.shape_kind[s]
-        if kind == 5:
+        if kind == triangle:
             a = vec3(rot[0, 0], rot[1, 0], rot[2, 0])
             b = vec3(rot[0, 1], rot[1, 1], rot[2, 1])
             c = vec3(rot[0, 2], rot[1, 2], rot[2, 2])
@@ -99,7 +104,7 @@ def build(t) -> SimpleNamespace:
         local = wp.transpose(rot) @ (x - model.shape_center[s])
         d = zero
         n = vec3(zero, zero, one)
-        if kind == 1:               # box: the clamped excess over its half sides
+        if kind == box:             # the clamped excess over its half sides
             e = vec3(wp.max(wp.abs(local[0]) - size[0], zero),
                      wp.max(wp.abs(local[1]) - size[1], zero),
                      wp.max(wp.abs(local[2]) - size[2], zero))
@@ -116,7 +121,7 @@ def build(t) -> SimpleNamespace:
                 if wp.abs(local[2]) - size[2] > d:
                     d = wp.abs(local[2]) - size[2]
                     n = vec3(zero, zero, sign_of(local[2]))
-        elif kind == 4:             # cylinder along z: radial and axial excess
+        elif kind == cylinder:      # along z: radial and axial excess
             radial = wp.sqrt(local[0] * local[0] + local[1] * local[1])
             out = vec3(one, zero, zero)
             if radial > zero:
@@ -133,9 +138,9 @@ def build(t) -> SimpleNamespace:
             else:
                 d = dz
                 n = up
-        else:                       # sphere (2), capsule (3): from the nearest axis point
+        else:                       # sphere, capsule: from the nearest axis point
             nearest = vec3(zero, zero, zero)
-            if kind == 3:
+            if kind == capsule:
                 nearest = vec3(zero, zero, wp.clamp(local[2], -size[1], size[1]))
             gap = local - nearest
             length = wp.length(gap)
@@ -236,8 +241,8 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def body_pair(model: Model, p: int):
-        """(family: 0 a point against a face, 1 an edge against an edge; the first side's
-        point or edge; the other side's face or edge) of pair p, one of a pair of bodies."""
+        """(family code, contact_kinds.BODY_FAMILIES; the first side's point or edge; the
+        other side's face or edge) of pair p, one of a pair of bodies."""
         k = p - static_pairs(model)
         low = int(0)
         high = model.touch_a.shape[0]
@@ -250,7 +255,7 @@ def build(t) -> SimpleNamespace:
         a = model.touch_a[low]
         b = model.touch_b[low]
         k = k - model.touch_first[low]
-        family = int(0)
+        family = int(point_face)
         points_a = model.body_first_point[a + 1] - model.body_first_point[a]
         faces_b = model.body_first_face[b + 1] - model.body_first_face[b]
         first = int(0)
@@ -266,7 +271,7 @@ def build(t) -> SimpleNamespace:
                 first, other = block_item(model.body_first_point[b], model.body_first_face[a],
                                           faces_a, k)
             else:
-                family = 1
+                family = edge_edge
                 first, other = block_item(model.body_first_edge[a], model.body_first_edge[b],
                                           model.body_first_edge[b + 1]
                                           - model.body_first_edge[b], k - points_b * faces_a)
@@ -288,7 +293,7 @@ def build(t) -> SimpleNamespace:
         if wp.static(bodies):
             if p >= static_pairs(model):
                 family, first, second = body_pair(model, p)
-                if family == 0:
+                if family == point_face:
                     body = model.point_body[first]
                     other = model.face_body[second]
                 else:
@@ -381,7 +386,7 @@ def build(t) -> SimpleNamespace:
                 if wp.static(bodies):
                     if p >= static_pairs(model):
                         family, first, second = body_pair(model, p)
-                        if family == 0:
+                        if family == point_face:
                             return body_face_gap(model, q, q_other, first, second)
                         return body_edge_gap(model, q, q_other, first, second)
                 return static_vertex_gap(model, q, p - point_pairs(model) - edge_pairs(model))
@@ -438,7 +443,7 @@ def build(t) -> SimpleNamespace:
         if wp.static(bodies):
             if p >= static_pairs(model):
                 family, e, s = body_pair(model, p)
-                if family == 1:
+                if family == edge_edge:
                     own = model.edge_b[e] - model.edge_a[e]
                     other = model.edge_b[s] - model.edge_a[s]
                     weight = mollifier(own, affine(q_n) @ own, other,
@@ -492,7 +497,7 @@ def build(t) -> SimpleNamespace:
         if wp.static(bodies):
             if p >= static_pairs(model):
                 family, first, second = body_pair(model, p)
-                if family == 1:
+                if family == edge_edge:
                     most = edges_reach(model, dq, first, dq_other, second)
                 else:
                     most = corner_reach(dq_other, model.face_rest[second],

@@ -18,10 +18,11 @@ import numpy as np
 
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
+from affine_joint_sim.physics.contact_kinds import TRIANGLE
 from affine_joint_sim.physics.mesh_hull import mesh_hull
 from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, touch_first
 from affine_joint_sim.physics.primitives import Surface, moving_surface, static_surfaces
-from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_separation, static_shapes
+from affine_joint_sim.physics.static_shapes import shape_separation, static_shapes
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning
@@ -321,7 +322,7 @@ def _overlap(scene, q, arrays, only) -> tuple | None:
     for s, owner in enumerate(owners):
         kind, rotation, centre, size = (shapes[key][s] for key in (
             'shape_kind', 'shape_rotation', 'shape_center', 'shape_size'))
-        if kind == SHAPE_KINDS['triangle']:
+        if kind == TRIANGLE.code:
             continue
         for i, body in enumerate(arrays['point_body']):
             if arrays['touch_slot'][body, owner] < 0 or only not in (None, body, owner):

@@ -23,6 +23,8 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
+from affine_joint_sim.physics.contact_kinds import SHAPE_KINDS
+
 __all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'CONTACT_STATS',
            'COUPLED_STATS', 'PROBLEM_NAMES',
            'PROBLEM_COLUMNS', 'structs',
@@ -130,14 +132,14 @@ FIELDS = _fields('model', [
     ('plane_offset', 'scalar', ('plane',), 'm', 'its offset h: the half-space n·x ≥ h'),
     ('plane_tangent', 'vec3', ('plane',), '-', 'first unit tangent t₁ of its friction basis '
      '(t₂ = n × t₁)'),
-    ('shape_kind', 'int32', ('shape',), '-', 'a fixed body\'s collision geometry: 1 box, '
-     '2 sphere, 3 capsule, 4 cylinder, 5 triangle of a mesh (static_shapes.SHAPE_KINDS)'),
+    ('shape_kind', 'int32', ('shape',), '-', 'a fixed body\'s collision geometry: '
+     + ', '.join(f'{kind.code} {kind.name}' for kind in SHAPE_KINDS) + ' (of a mesh; '
+     'contact_kinds.SHAPE_KINDS)'),
     ('shape_rotation', 'mat33', ('shape',), '-', 'its axes in the world (columns); a '
      'triangle\'s three vertices'),
     ('shape_center', 'vec3', ('shape',), 'm', 'its centre in the world'),
-    ('shape_size', 'vec3', ('shape',), 'm', 'box: half sides; sphere: (ρ, 0, 0); capsule and '
-     'cylinder: (ρ, half length along its z, 0); triangle: (the largest distance of a vertex '
-     'from its centroid, 0, 0)'),
+    ('shape_size', 'vec3', ('shape',), 'm',
+     '; '.join(f'{kind.name}: {kind.size}' for kind in SHAPE_KINDS)),
     ('body_reach', 'scalar', B, 'm', 'the farthest contact point or corner of an edge or face of '
      'a free body from its centre of mass, rest (0: none); bounds how far they move'),
     ('body_bound', 'scalar', B, 'm', 'the radius of a sphere about a free body\'s centre of '

@@ -12,7 +12,8 @@ import math
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.static_shapes import SHAPE_KINDS, shape_separation, triangle_weights
+from affine_joint_sim.physics.contact_kinds import BOX, CAPSULE, EDGE_EDGE, POINT_FACE, SPHERE
+from affine_joint_sim.physics.static_shapes import shape_separation, triangle_weights
 
 __all__ = ['Gap', 'body_pair', 'near_pairs', 'pair_gap', 'pair_total', 'pair_weight',
            'pair_distances', 'point_distances', 'segment_params', 'touch_blocks', 'touch_first']
@@ -83,16 +84,17 @@ def pair_total(model) -> int:
 
 def touch_blocks(model, j: int) -> list[tuple[int, range, range]]:
     """The pairs of the j-th pair of bodies (touch_a, touch_b) = (a, b) that may touch, as
-    three blocks (family: 0 a point against a face, 1 an edge against an edge; the first
-    sides; the other sides), each numbered row by row: the points of a against the faces of
-    b, the points of b against the faces of a, the edges of a against the edges of b."""
+    three blocks (family code: contact_kinds.BODY_FAMILIES; the first sides; the other
+    sides), each numbered row by row: the points of a against the faces of b, the points of b
+    against the faces of a, the edges of a against the edges of b."""
     a, b = int(model['touch_a'][j]), int(model['touch_b'][j])
 
     def of(kind, body):
         first = model[f'body_first_{kind}']
         return range(int(first[body]), int(first[body + 1]))
-    return [(0, of('point', a), of('face', b)), (0, of('point', b), of('face', a)),
-            (1, of('edge', a), of('edge', b))]
+    return [(family.code, of(family.first, first), of(family.other, other))
+            for family, first, other in ((POINT_FACE, a, b), (POINT_FACE, b, a),
+                                         (EDGE_EDGE, a, b))]
 
 
 def touch_first(model) -> np.ndarray:
@@ -104,8 +106,8 @@ def touch_first(model) -> np.ndarray:
 
 
 def body_pair(model, k: int) -> tuple[int, int, int]:
-    """(family: 0 a point against a face, 1 an edge against an edge; the first side's point
-    or edge; the other side's face or edge) of the k-th pair of bodies (``touch_blocks``)."""
+    """(family code, contact_kinds.BODY_FAMILIES; the first side's point or edge; the other
+    side's face or edge) of the k-th pair of bodies (``touch_blocks``)."""
     j = int(np.searchsorted(model['touch_first'], k, side='right')) - 1
     k -= int(model['touch_first'][j])
     for family, first, other in touch_blocks(model, j):
@@ -119,7 +121,7 @@ def body_pair(model, k: int) -> tuple[int, int, int]:
 def _body_gap(model, q, k: int) -> Gap:
     """The k-th pair of bodies (``body_pair``)."""
     family, i, f = body_pair(model, k)
-    if family == 0:
+    if family == POINT_FACE.code:
         body, other = model['point_body'][i], model['face_body'][f]
         rest, radius = model['point_rest'][i], model['point_radius'][i]
         corners = np.asarray(model['face_rest'][f]).T
@@ -191,12 +193,12 @@ def pair_weight(model, q_n, p: int) -> float:
     near-parallel mollifier for an edge pair (the kernel's ``pair_weight``), else 1."""
     things, points, edges = _families(model)
     statics = len(model['pair_on'])
-    family, e, s = body_pair(model, p - statics) if p >= statics else (0, 0, 0)
+    family, e, s = body_pair(model, p - statics) if p >= statics else (-1, 0, 0)
     if points <= p < points + edges:
         e, s = divmod(p - points, len(model['static_edge_a']))
         other = model['static_edge_b'][s] - model['static_edge_a'][s]
         other_world = other
-    elif family == 1:
+    elif family == EDGE_EDGE.code:
         other = model['edge_b'][s] - model['edge_a'][s]
         other_world = pm.matmul(q_n[model['edge_body'][s], 3:].reshape(3, 3), other)
     else:
@@ -228,7 +230,8 @@ def near_pairs(model, q, reach: float) -> np.ndarray:
     centre, size = _ball(_moved(q, model['edge_body'],
                                 np.stack([model['edge_a'], model['edge_b']], axis=1)))
     edges = centre, size + model['edge_radius']
-    balls = {0: ((points, np.asarray(model['point_radius'])), faces), 1: (edges, edges)}
+    balls = {POINT_FACE.code: ((points, np.asarray(model['point_radius'])), faces),
+             EDGE_EDGE.code: (edges, edges)}
     listed = [np.flatnonzero(near)]
     for j in range(len(model['touch_a'])):
         base = len(near) + int(model['touch_first'][j])
@@ -292,11 +295,11 @@ def _near_faces(model, q, reach) -> np.ndarray:
 
 def _bounding_radius(kind: int, size) -> float:
     """The radius [m] of a sphere about a shape's centre that holds it."""
-    if kind == SHAPE_KINDS['box']:
+    if kind == BOX.code:
         return float(np.linalg.norm(size))
-    if kind == SHAPE_KINDS['sphere']:
+    if kind == SPHERE.code:
         return float(size[0])
-    if kind == SHAPE_KINDS['capsule']:
+    if kind == CAPSULE.code:
         return float(size[0] + size[1])
     return float(math.hypot(size[0], size[1]))
 

@@ -16,7 +16,7 @@ centre alone, so it has neither. A moving mesh touches as its convex hull (``mes
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.static_shapes import SHAPE_KINDS
+from affine_joint_sim.physics.contact_kinds import BOX, CAPSULE, CYLINDER, TRIANGLE
 from affine_joint_sim.rotations import rpy_matrix
 
 __all__ = ['CYLINDER_SEGMENTS', 'Surface', 'box_surface',
@@ -112,7 +112,7 @@ def static_surfaces(shapes: dict, owners) -> tuple[list[Surface], list[int]]:
     for s, kind in enumerate(kinds):
         rotation, centre, size = (shapes['shape_rotation'][s], shapes['shape_center'][s],
                                   shapes['shape_size'][s])
-        if kind == SHAPE_KINDS['triangle']:
+        if kind == TRIANGLE.code:
             soup.append(np.asarray(rotation).T)
             last = s + 1 == len(kinds) or kinds[s + 1] != kind or owners[s + 1] != owners[s]
             if last:
@@ -120,11 +120,11 @@ def static_surfaces(shapes: dict, owners) -> tuple[list[Surface], list[int]]:
                 surface_owners.append(owners[s])
                 soup = []
             continue
-        if kind == SHAPE_KINDS['box']:
+        if kind == BOX.code:
             local = box_surface(size)
-        elif kind == SHAPE_KINDS['cylinder']:
+        elif kind == CYLINDER.code:
             local = cylinder_surface(size[0], size[1])
-        elif kind == SHAPE_KINDS['capsule']:
+        elif kind == CAPSULE.code:
             local = Surface([[0.0, 0.0, -size[1]], [0.0, 0.0, size[1]]], [(0, 1)],
                             radius=size[0])
         else:                                   # a sphere: its centre, a zero-length edge

@@ -14,14 +14,13 @@ Which points may touch which shape follows the articulations (``Scene.articulati
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
+from affine_joint_sim.physics.contact_kinds import (BOX, CAPSULE, CYLINDER, SHAPE_CODES,
+                                                  TRIANGLE)
 from affine_joint_sim.physics.static_mesh import mesh_triangles
 from affine_joint_sim.rotations import rpy_matrix
 
-__all__ = ['SHAPE_KINDS', 'static_shapes', 'shape_separation', 'shape_distance',
+__all__ = ['static_shapes', 'shape_separation', 'shape_distance',
            'triangle_weights']
-
-SHAPE_KINDS = {'box': 1, 'sphere': 2, 'capsule': 3, 'cylinder': 4, 'triangle': 5}
-
 
 def static_shapes(bodies, q0: np.ndarray, geometries_of,
                   moving: bool = False) -> tuple[dict, list[int], list[str]]:
@@ -46,14 +45,14 @@ def static_shapes(bodies, q0: np.ndarray, geometries_of,
                                                f'body {body.name!r} (collision[{k}])'):
                     corners = np.array([centre + pm.matmul(axes, v) for v in triangle])
                     middle = corners.sum(axis=0) / 3.0
-                    kinds.append(SHAPE_KINDS['triangle'])
+                    kinds.append(TRIANGLE.code)
                     rotations.append(corners.T)           # the vertices as columns
                     centers.append(middle)
                     sizes.append([max(pm.norm(v - middle) for v in corners), 0.0, 0.0])
                     owners.append(b)
                     names.append(name)
                 continue
-            kinds.append(SHAPE_KINDS[geometry.kind])
+            kinds.append(SHAPE_CODES[geometry.kind])
             rotations.append(axes)
             centers.append(centre)
             sizes.append(_size(geometry))
@@ -80,7 +79,7 @@ def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.nd
     inside; the unit outward direction n, the distance's gradient), as the kernel computes
     them (``contact.shape_separation``)."""
     rotation = np.asarray(rotation)
-    if kind == SHAPE_KINDS['triangle']:
+    if kind == TRIANGLE.code:
         a, b, c = rotation.T
         weights = triangle_weights(np.asarray(x), a, b, c)
         gap = np.asarray(x) - (weights[0] * a + weights[1] * b + weights[2] * c)
@@ -89,14 +88,14 @@ def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.nd
     local = pm.matmul(rotation.T, np.asarray(x) - np.asarray(center))
     size = np.asarray(size)
     sign = np.where(local < 0.0, -1.0, 1.0)
-    if kind == SHAPE_KINDS['box']:
+    if kind == BOX.code:
         excess = np.maximum(np.abs(local) - size, 0.0)
         d = pm.norm(excess)
         if d > 0.0:
             return d, pm.matmul(rotation, sign * excess / d)
         axis = int(np.argmax(np.abs(local) - size))
         return float(np.abs(local[axis]) - size[axis]), rotation[:, axis] * sign[axis]
-    if kind == SHAPE_KINDS['cylinder']:
+    if kind == CYLINDER.code:
         radial = pm.norm(local[:2])
         out = np.array([local[0] / radial, local[1] / radial, 0.0]) if radial > 0.0 \
             else np.array([1.0, 0.0, 0.0])
@@ -107,7 +106,7 @@ def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.nd
             return d, pm.matmul(rotation, (dr * out + dz * up) / d)
         return (dr, pm.matmul(rotation, out)) if dr > dz else (dz, pm.matmul(rotation, up))
     axis_point = np.zeros(3)
-    if kind == SHAPE_KINDS['capsule']:
+    if kind == CAPSULE.code:
         axis_point[2] = min(max(local[2], -size[1]), size[1])
     gap = local - axis_point
     length = pm.norm(gap)
