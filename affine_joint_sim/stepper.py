@@ -25,15 +25,15 @@ from affine_joint_sim.physics.fields import (CONTACT_STATS, COUPLED_STATS, PROBL
                                              STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
                                              array_sizes, device_model)
 from affine_joint_sim.physics.frames import FRAME_COLUMNS, POSE_COLUMNS
-from affine_joint_sim.physics.report import REPORT_COLUMNS, REPORT_ROOM
+from affine_joint_sim.physics.contact.report import REPORT_COLUMNS, REPORT_ROOM
 from affine_joint_sim.physics.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import (frame_kernel, report_kernel, scalar_of,
                                               sensor_kernel, step_kernels)
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
-from affine_joint_sim.physics.contact_model import refuse_touching
+from affine_joint_sim.physics.contact.model import refuse_touching
 from affine_joint_sim.physics.model import build_model, largest_step_efforts
 from affine_joint_sim.physics.newton import HALVINGS
-from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap
+from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap
 from affine_joint_sim.placement import body_rows, free_body
 from affine_joint_sim.poses import LinkFrames
 from affine_joint_sim.scene import Scene
@@ -681,9 +681,9 @@ class Stepper:
         surface, ``normal`` (unit, towards the body), ``distance`` [m], ``normal_force`` [N],
         ``friction_force`` [N, world, on the body]), one list per environment when batched;
         empty without contact. The pairs the last step evaluated, by pair number
-        (``physics.report``: one replay of a captured launch over every environment), computed
-        once per state: the same lists until the next step or reset (read them, do not change
-        them)."""
+        (``physics.contact.report``: one replay of a captured launch over every environment),
+        computed once per state: the same lists until the next step or reset (read them, do
+        not change them)."""
         if not self._host.has_contact:
             per_env = [[] for _ in range(self._envs)]
         else:

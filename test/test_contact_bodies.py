@@ -13,7 +13,7 @@ import pytest
 
 from affine_joint_sim.bench.bodies import gripper_scene, lift_target, stack_scene
 from affine_joint_sim.physics.evaluate import Stages
-from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap
+from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper
 from helpers.barrier import assert_matches_differences, assert_psd

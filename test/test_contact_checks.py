@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from affine_joint_sim.physics.contact import STEP_SLACK
-from affine_joint_sim.physics.pair_geometry import point_distances as world_distances
+from affine_joint_sim.physics.contact.terms import STEP_SLACK
+from affine_joint_sim.physics.contact.pairs import point_distances as world_distances
 from affine_joint_sim.physics.evaluate import Stages
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import Scene

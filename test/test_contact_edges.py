@@ -13,9 +13,9 @@ import trimesh
 
 from affine_joint_sim.contact_schema import Collision
 from affine_joint_sim.physics.evaluate import Stages
-from affine_joint_sim.physics.mesh_hull import mesh_hull
-from affine_joint_sim.physics.pair_geometry import pair_distances, pair_weight, segment_params
-from affine_joint_sim.physics.primitives import (CYLINDER_SEGMENTS, box_surface,
+from affine_joint_sim.physics.contact.hull import mesh_hull
+from affine_joint_sim.physics.contact.pairs import pair_distances, pair_weight, segment_params
+from affine_joint_sim.physics.contact.primitives import (CYLINDER_SEGMENTS, box_surface,
                                                  cylinder_surface, moving_surface)
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper

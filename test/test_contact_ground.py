@@ -1,4 +1,4 @@
-"""Contact with ground half-spaces (physics.contact): the barrier's gradient and Hessian
+"""Contact with ground half-spaces (physics.contact.terms): the barrier's gradient and Hessian
 against finite differences, the resting distance against the closed-form equilibrium of the
 barrier (the numbers of libuipc's defaults), a drop that never penetrates and obeys energy,
 and the scene checks."""
@@ -297,7 +297,7 @@ def test_a_damped_box_stops_at_v0_squared_over_2_mu_g_under_bdf2():
 
 
 def test_two_surfaces_combine_their_friction_by_the_harmonic_mean():
-    from affine_joint_sim.physics.contact_model import combined_friction
+    from affine_joint_sim.physics.contact.model import combined_friction
     assert combined_friction(0.5, 0.5) == 0.5
     assert combined_friction(1.0, 0.05) == pytest.approx(2 * 0.05 / 1.05)
     assert combined_friction(0.0, 0.8) == 0.0 and combined_friction(0.0, 0.0) == 0.0

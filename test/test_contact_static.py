@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from affine_joint_sim.physics.evaluate import Stages
-from affine_joint_sim.physics.contact_kinds import BOX, CAPSULE, CYLINDER, SPHERE
-from affine_joint_sim.physics.static_shapes import shape_distance
+from affine_joint_sim.physics.contact.kinds import BOX, CAPSULE, CYLINDER, SPHERE
+from affine_joint_sim.physics.contact.shapes import shape_distance
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.stepper import Stepper
@@ -227,7 +227,7 @@ def test_the_barrier_gradient_against_a_triangle_matches_finite_differences(tmp_
 def test_a_large_static_mesh_is_reduced_with_a_warning_naming_the_body(tmp_path):
     import trimesh
 
-    from affine_joint_sim.physics.static_mesh import MAX_STATIC_TRIANGLES
+    from affine_joint_sim.physics.contact.mesh import MAX_STATIC_TRIANGLES
     from affine_joint_sim.sim_warnings import SimulationDetail
     rock = trimesh.creation.icosphere(subdivisions=3, radius=0.2)          # 1280 faces
     rock.export(tmp_path / 'rock.stl')

@@ -1,5 +1,5 @@
 """A moving mesh touches as its convex hull, simplified only within contact.mesh_tolerance
-(physics/mesh_hull.py): the bound checked against the mesh's support function, the warning
+(physics/contact/hull.py): the bound checked against the mesh's support function, the warning
 said once with it, and an arm whose links are fine meshes folding onto itself checked against
 the full meshes."""
 
@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from affine_joint_sim.bench import zoo
-from affine_joint_sim.physics.mesh_hull import simplified_hull
+from affine_joint_sim.physics.contact.hull import simplified_hull
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.sim_warnings import SimulationDetail, SimulationWarning
 from affine_joint_sim.stepper import Stepper

@@ -60,13 +60,17 @@ def test_the_kernel_salt_digests_the_step_kernels_sources_and_no_host_code():
     from affine_joint_sim.physics import kernels
     from affine_joint_sim.physics.kernel_math import kernel_sources
 
-    names = {path.name for path in kernel_sources((kernels.precision, *kernels._STAGES))}
-    # the joint types' modules (imported by name), the field tables the stages import, the
-    # portable math outside physics/
-    assert {'revolute.py', 'prismatic.py', 'fixed.py', 'joint_kinds.py', 'fields.py',
-            'contact_geometry.py', 'precision.py', 'portable_math.py'} <= names
+    files = kernel_sources((kernels.precision, *kernels._STAGES))
+    names = {'/'.join(path.parts[-2:]) for path in files}
+    # the joint types' modules (imported by name), the field tables and the contact kinds the
+    # stages import, the portable math outside physics/
+    assert {'joints/revolute.py', 'joints/prismatic.py', 'joints/fixed.py',
+            'physics/joint_kinds.py', 'physics/fields.py', 'contact/geometry.py',
+            'contact/terms.py', 'contact/kinds.py', 'physics/precision.py',
+            'affine_joint_sim/portable_math.py'} <= names
     # editing the host's model build, the report or sensor kernels, or the package's entry
     # points keeps every compiled step kernel
-    assert not names & {'model.py', 'contact_model.py', 'pair_geometry.py', 'static_shapes.py',
-                        'report.py', 'sensing.py', 'frames.py', 'kernels.py', 'stepper.py',
-                        '__main__.py', 'scene.py'}
+    assert not names & {'physics/model.py', 'contact/model.py', 'contact/pairs.py',
+                        'contact/shapes.py', 'contact/report.py', 'physics/sensing.py',
+                        'physics/frames.py', 'physics/kernels.py', 'affine_joint_sim/stepper.py',
+                        'affine_joint_sim/scene.py'}

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, pair_weight
+from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap, pair_weight
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.model import HostModel, residual_jacobians
 

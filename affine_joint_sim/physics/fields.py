@@ -23,7 +23,7 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-from affine_joint_sim.physics.contact_kinds import SHAPE_KINDS
+from affine_joint_sim.physics.contact.kinds import SHAPE_KINDS
 
 __all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'CONTACT_STATS',
            'COUPLED_STATS', 'PROBLEM_NAMES',
@@ -134,7 +134,7 @@ FIELDS = _fields('model', [
      '(t₂ = n × t₁)'),
     ('shape_kind', 'int32', ('shape',), '-', 'a fixed body\'s collision geometry: '
      + ', '.join(f'{kind.code} {kind.name}' for kind in SHAPE_KINDS) + ' (of a mesh; '
-     'contact_kinds.SHAPE_KINDS)'),
+     'contact.kinds.SHAPE_KINDS)'),
     ('shape_rotation', 'mat33', ('shape',), '-', 'its axes in the world (columns); a '
      'triangle\'s three vertices'),
     ('shape_center', 'vec3', ('shape',), 'm', 'its centre in the world'),

@@ -15,17 +15,20 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics import (affine, assemble, commands, commit, contact,
-                                      contact_geometry, coupled_solve, frames, joint_terms,
-                                      joints, kernel_math, newton, ortho, potential, precision,
-                                      prediction, report, sensing, step, tree_solve)
+from affine_joint_sim.physics import (affine, assemble, commands, commit, coupled_solve, frames,
+                                      joint_terms, joints, kernel_math, newton, ortho,
+                                      potential, precision, prediction, sensing, step,
+                                      tree_solve)
+from affine_joint_sim.physics.contact import geometry as contact_geometry
+from affine_joint_sim.physics.contact import report
+from affine_joint_sim.physics.contact import terms as contact_terms
 from affine_joint_sim.physics.fields import structs
 from affine_joint_sim.physics.kernel_math import source_salt
 
 __all__ = ['step_kernels', 'scalar_of', 'frame_kernel', 'report_kernel', 'sensor_kernel']
 
 _STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands,
-           contact_geometry, contact, coupled_solve, potential, assemble, prediction, newton,
+           contact_geometry, contact_terms, coupled_solve, potential, assemble, prediction, newton,
            commit, step)
 _BUILT = {}
 _FRAMES = {}
@@ -86,13 +89,13 @@ def _frames(scalar):
 
 
 def report_kernel(scalar, bodies: bool = False):
-    """The contact report kernel of ``physics.report`` for ``scalar`` and the pipeline with
+    """The contact report kernel of ``physics.contact.report`` for ``scalar`` and the pipeline with
     or without pairs of bodies (built on first use)."""
     return _report(scalar, bodies).contact_report
 
 
 def _report(scalar, bodies: bool):
-    """``physics.report``'s namespace for ``scalar`` and the pair kind (built once)."""
+    """``physics.contact.report``'s namespace for ``scalar`` and the pair kind (built once)."""
     key = (scalar, bool(bodies))
     if key not in _REPORTS:
         _REPORTS[key] = report.build(step_kernels(scalar, bodies))

@@ -11,14 +11,14 @@ import warnings
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.contact_model import contact_arrays
+from affine_joint_sim.physics.contact.model import contact_arrays
 from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, GENERALIZED, LEVER_ARM,
                                             WRAPPED)
 from affine_joint_sim.physics.joint_kinds import JOINT_KINDS, joint_kind
 from affine_joint_sim.physics.joints import host_functions
 from affine_joint_sim.physics.fields import fields_of
 from affine_joint_sim.physics.mass import body_mass_properties
-from affine_joint_sim.physics.pair_geometry import pair_total
+from affine_joint_sim.physics.contact.pairs import pair_total
 from affine_joint_sim.physics.rigidity import body_rigidity
 from affine_joint_sim.rotations import rotation_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning

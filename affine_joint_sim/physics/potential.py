@@ -2,7 +2,7 @@
 
 E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q)
 + Σ_joints φ(x(q)) (limit, drive, damping: physics.joint_terms) + dt² Σ b(d) (contact with
-static half-spaces: physics.contact, +∞ on penetration) + Σ μ dt²λ f0(|u|) (lagged friction);
+static half-spaces: physics.contact.terms, +∞ on penetration) + Σ μ dt²λ f0(|u|) (lagged friction);
 the joint terms carry no dt².
 kinetic_scale is 1 (BDF1) or 9/4 (BDF2). See docs/physics.md#incremental-potential.
 """

@@ -213,7 +213,7 @@ def _polygons(scene) -> list:
 
 def _ground_planes(scene):
     """(unit normal, a point on it, t₁, t₂) of each ground half-space."""
-    from affine_joint_sim.physics.contact_model import tangent
+    from affine_joint_sim.physics.contact.model import tangent
 
     for plane in scene.ground or []:
         if plane.height is not None:

@@ -1,6 +1,6 @@
 """The contact report's reference: the active contacts of a state evaluated pair by pair in plain
-NumPy from the host model (``physics.pair_geometry``), independent of the kernel that
-``Stepper.contacts`` replays (``physics.report``).
+NumPy from the host model (``physics.contact.pairs``), independent of the kernel that
+``Stepper.contacts`` replays (``physics.contact.report``).
 
 A pair is active when its distance is below d̂, or when friction was lagged for it at the
 step's start (it acts until the step ends). Its normal force is the barrier's push −db/dd
@@ -9,7 +9,7 @@ approach or opening within d̂ (the sum never below 0: a damper never pulls), c 
 step's start (``scratch.normal_damping`` / dt); its friction force the lagged smoothed
 Coulomb friction of the last step: μ λ (f1(|u|)/|u|) against the slip u since the step's
 start, λ the normal force frozen at that start (``scratch.friction_normal`` / dt²). These are
-the forces the step balanced, as ``physics.contact`` computes them, evaluated once more in
+the forces the step balanced, as ``physics.contact.terms`` computes them, evaluated once more in
 plain NumPy (the last bits may differ from the kernel's, and between machines).
 """
 
@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from affine_joint_sim.physics.contact_model import tangent
-from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, pair_weight
+from affine_joint_sim.physics.contact.model import tangent
+from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap, pair_weight
 
 __all__ = ['barrier_force', 'active_contacts']
 
@@ -69,7 +69,7 @@ def active_contacts(host, q, q_n, friction_normal, normal_damping, body_names,
 
 
 def _candidates(host, q, friction_normal) -> list[int]:
-    """Pairs that may touch and may be closer than d̂ (``pair_geometry.near_pairs``), and
+    """Pairs that may touch and may be closer than d̂ (``contact.pairs.near_pairs``), and
     those with friction lagged at the step's start (it acts on them even once they are beyond
     d̂; damping acts only within d̂). The pairs are then evaluated one by one."""
     lagged = np.flatnonzero(friction_normal > 0.0)

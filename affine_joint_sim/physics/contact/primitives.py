@@ -2,7 +2,7 @@
 (README.md#contact, docs/physics.md#contact).
 
 Two convex solids are nearest at a vertex of one against the other (the contact points of
-``contact_model`` against a static shape), at an edge of one against an edge of the other, or
+``contact.model`` against a static shape), at an edge of one against an edge of the other, or
 at a vertex of the static one against a face of the moving one. So beside its points a moving
 body has **edges** (rest endpoints and a radius: a box's 12, a capsule's axis with its radius,
 a cylinder's rims and 16 side lines, a mesh's) and **faces** (rest triangles: a box's 12, a
@@ -16,7 +16,7 @@ centre alone, so it has neither. A moving mesh touches as its convex hull (``mes
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.contact_kinds import BOX, CAPSULE, CYLINDER, TRIANGLE
+from affine_joint_sim.physics.contact.kinds import BOX, CAPSULE, CYLINDER, TRIANGLE
 from affine_joint_sim.rotations import rpy_matrix
 
 __all__ = ['CYLINDER_SEGMENTS', 'Surface', 'box_surface',
@@ -86,7 +86,7 @@ def _mesh_surface(triangles: np.ndarray) -> Surface:
 def moving_surface(geometry, hull=None) -> Surface:
     """The edges and faces a moving body's collision ``geometry`` touches static geometry
     with, in the body frame (a sphere: none; its centre is exact); a mesh's are those of its
-    ``hull`` (``mesh_hull.Hull``)."""
+    ``hull`` (``contact.hull.Hull``)."""
     kind = geometry.kind
     if kind == 'box':
         local = box_surface([0.5 * side for side in geometry.box])
@@ -105,7 +105,7 @@ def moving_surface(geometry, hull=None) -> Surface:
 
 def static_surfaces(shapes: dict, owners) -> tuple[list[Surface], list[int]]:
     """(one world surface per fixed body's convex geometry or mesh, the body index of each)
-    from the static shape fields (``static_shapes``): a mesh's triangles, consecutive with
+    from the static shape fields (``contact.shapes``): a mesh's triangles, consecutive with
     the same owner, become one surface so each of its edges and vertices counts once."""
     surfaces, surface_owners, soup = [], [], []
     kinds = shapes['shape_kind']

@@ -1,4 +1,4 @@
-"""Contact: the IPC barrier on each pair's distance (``contact_geometry``), lagged smoothed
+"""Contact: the IPC barrier on each pair's distance (``contact.geometry``), lagged smoothed
 Coulomb friction and contact damping, their gradients and Hessians mapped into the bodies'
 blocks, the near-pair list, the step bound along a Newton direction, and the statistics
 (docs/physics.md#contact).
@@ -19,7 +19,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from affine_joint_sim.physics.out_of_line import apart
-from affine_joint_sim.physics.contact_kinds import TRIANGLE
+from affine_joint_sim.physics.contact.kinds import TRIANGLE
 
 __all__ = ['ADVANCE_STEPS', 'ARRIVING', 'IMPACT_ACCELERATION', 'IMPACT_SHARE',
            'RELEASE_HALVINGS', 'STEP_SLACK', 'STIFF', 'build']
@@ -423,7 +423,7 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def tangent_of(n: vec3):
         """t₁ of a friction basis for normal n: x̂ × n normalized (ẑ × n where n is within
-        about 26° of x̂), as contact_model._tangent gives a half-space."""
+        about 26° of x̂), as contact.model._tangent gives a half-space."""
         axis = vec3(one, zero, zero)
         if wp.abs(n[0]) > scalar(0.9):
             axis = vec3(zero, zero, one)

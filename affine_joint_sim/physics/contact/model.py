@@ -1,5 +1,5 @@
 """Host-side contact model: a scene's collision geometry as contact points, its ground as
-half-spaces and its fixed bodies' geometry as static shapes (``static_shapes``; the model
+half-spaces and its fixed bodies' geometry as static shapes (``contact.shapes``; the model
 fields of physics.fields under ``has_contact``), and the refusal of a scene whose initial state
 already touches (docs/physics.md#contact).
 
@@ -18,11 +18,11 @@ import numpy as np
 
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
-from affine_joint_sim.physics.contact_kinds import TRIANGLE
-from affine_joint_sim.physics.mesh_hull import mesh_hull
-from affine_joint_sim.physics.pair_geometry import near_pairs, pair_gap, touch_first
-from affine_joint_sim.physics.primitives import Surface, moving_surface, static_surfaces
-from affine_joint_sim.physics.static_shapes import shape_separation, static_shapes
+from affine_joint_sim.physics.contact.kinds import TRIANGLE
+from affine_joint_sim.physics.contact.hull import mesh_hull
+from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap, touch_first
+from affine_joint_sim.physics.contact.primitives import Surface, moving_surface, static_surfaces
+from affine_joint_sim.physics.contact.shapes import shape_separation, static_shapes
 from affine_joint_sim.rotations import rpy_matrix
 from affine_joint_sim.scene import SceneError
 from affine_joint_sim.sim_warnings import SimulationWarning

@@ -2,14 +2,14 @@
 (``Stepper.contacts``, contact sensors and markers; README.md#contact).
 
 One thread per environment, over its near list (the pairs the last step evaluated,
-``contact.listed``, in their order): a pair is active when its distance d at the state is
+``contact.terms.listed``, in their order): a pair is active when its distance d at the state is
 positive and below d̂, or when friction was lagged for it at the step's start (it acts until
 the step ends). Its row holds d [m], the unit normal n (from the other side towards the body),
 the nearest point of the other side's surface [m, world], the normal force [N] (the barrier's
 push −w db/dd at d, plus the contact damper's −c (d − min(d_n, d̂))/dt within d̂, the sum never
 below 0: the damper never pulls) and the friction force [N, world, on the body] (the lagged
 smoothed Coulomb friction −μ λ (f1(y)/y) u of the slip u since q_n, λ frozen at the step's
-start). These are ``physics.contact``'s own quantities, evaluated once more at the state. The
+start). These are ``physics.contact.terms``'s own quantities, evaluated once more at the state. The
 active pairs go to the environment's rows in turn, as many as there is room for; ``counts``
 says how many there were (the caller makes room and launches again when that is more). Built
 per precision and pair kind, in a Warp module of its own (only scenes whose contacts are read
@@ -40,7 +40,8 @@ def build(t) -> SimpleNamespace:
     def normal_force(model: Model, state: State, scratch: Scratch, env: int, p: int,
                      d: scalar):
         """The barrier's push plus the damper's force [N] of pair p at distance d < d̂: minus
-        their gradients along d (the step's own, ``contact.damper``) over dt², never below 0."""
+        their gradients along d (the step's own, ``contact.terms.damper``) over dt², never
+        below 0."""
         body, other = pair_bodies(model, p)
         dt2 = model.dt * model.dt
         e, b1, b2 = barrier(model, d)

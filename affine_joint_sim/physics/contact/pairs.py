@@ -1,5 +1,5 @@
 """The geometry of contact pairs in NumPy, host side: each pair's distance, normal and nearest
-points as the kernel's ``contact.pair_gap`` computes them (refusing a touching scene,
+points as the kernel's ``contact.geometry.pair_gap`` computes them (refusing a touching scene,
 ``Stepper.energy``, ``Stepper.contacts``; the last bits may differ from the kernel's).
 
 Pairs are numbered as in the model (physics.fields ``pair``): point × static thing, then
@@ -12,8 +12,8 @@ import math
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.contact_kinds import BOX, CAPSULE, EDGE_EDGE, POINT_FACE, SPHERE
-from affine_joint_sim.physics.static_shapes import shape_separation, triangle_weights
+from affine_joint_sim.physics.contact.kinds import BOX, CAPSULE, EDGE_EDGE, POINT_FACE, SPHERE
+from affine_joint_sim.physics.contact.shapes import shape_separation, triangle_weights
 
 __all__ = ['Gap', 'body_pair', 'near_pairs', 'pair_gap', 'pair_total', 'pair_weight',
            'pair_distances', 'point_distances', 'segment_params', 'touch_blocks', 'touch_first']
@@ -84,7 +84,7 @@ def pair_total(model) -> int:
 
 def touch_blocks(model, j: int) -> list[tuple[int, range, range]]:
     """The pairs of the j-th pair of bodies (touch_a, touch_b) = (a, b) that may touch, as
-    three blocks (family code: contact_kinds.BODY_FAMILIES; the first sides; the other
+    three blocks (family code: contact.kinds.BODY_FAMILIES; the first sides; the other
     sides), each numbered row by row: the points of a against the faces of b, the points of b
     against the faces of a, the edges of a against the edges of b."""
     a, b = int(model['touch_a'][j]), int(model['touch_b'][j])
@@ -106,7 +106,7 @@ def touch_first(model) -> np.ndarray:
 
 
 def body_pair(model, k: int) -> tuple[int, int, int]:
-    """(family code, contact_kinds.BODY_FAMILIES; the first side's point or edge; the other
+    """(family code, contact.kinds.BODY_FAMILIES; the first side's point or edge; the other
     side's face or edge) of the k-th pair of bodies (``touch_blocks``)."""
     j = int(np.searchsorted(model['touch_first'], k, side='right')) - 1
     k -= int(model['touch_first'][j])

@@ -4,19 +4,20 @@ A fixed body with ``collision`` is world geometry: each of its boxes, spheres, c
 cylinders becomes a static shape at its world pose at t = 0 (a fixed body never moves), and
 each triangle of its meshes one too (at most ``MAX_STATIC_TRIANGLES`` a mesh). Moving bodies
 touch it with their contact points: the distance of a point to a convex shape, a triangle
-included, is exact (``shape_distance`` here, ``contact.shape_separation`` in the kernel); and
-with their edges and faces against its edges and vertices (``physics.primitives``).
+included, is exact (``shape_distance`` here, ``contact.geometry.shape_separation`` in the
+kernel); and with their edges and faces against its edges and vertices
+(``contact.primitives``).
 Which points may touch which shape follows the articulations (``Scene.articulations``;
-``contact_model`` decides).
+``contact.model`` decides).
 """
 
 
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.contact_kinds import (BOX, CAPSULE, CYLINDER, SHAPE_CODES,
+from affine_joint_sim.physics.contact.kinds import (BOX, CAPSULE, CYLINDER, SHAPE_CODES,
                                                   TRIANGLE)
-from affine_joint_sim.physics.static_mesh import mesh_triangles
+from affine_joint_sim.physics.contact.mesh import mesh_triangles
 from affine_joint_sim.rotations import rpy_matrix
 
 __all__ = ['static_shapes', 'shape_separation', 'shape_distance',
@@ -77,7 +78,7 @@ def _size(geometry) -> list[float]:
 def shape_separation(kind: int, rotation, center, size, x) -> tuple[float, np.ndarray]:
     """(signed distance [m] of the world point ``x`` to a static shape's surface, negative
     inside; the unit outward direction n, the distance's gradient), as the kernel computes
-    them (``contact.shape_separation``)."""
+    them (``contact.geometry.shape_separation``)."""
     rotation = np.asarray(rotation)
     if kind == TRIANGLE.code:
         a, b, c = rotation.T

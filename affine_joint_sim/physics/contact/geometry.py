@@ -20,7 +20,7 @@ from types import SimpleNamespace
 import warp as wp
 
 from affine_joint_sim.physics.out_of_line import apart
-from affine_joint_sim.physics.contact_kinds import (BOX, CAPSULE, CYLINDER, EDGE_EDGE,
+from affine_joint_sim.physics.contact.kinds import (BOX, CAPSULE, CYLINDER, EDGE_EDGE,
                                                     POINT_FACE, TRIANGLE)
 
 __all__ = ['build']
@@ -241,7 +241,7 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def body_pair(model: Model, p: int):
-        """(family code, contact_kinds.BODY_FAMILIES; the first side's point or edge; the
+        """(family code, contact.kinds.BODY_FAMILIES; the first side's point or edge; the
         other side's face or edge) of pair p, one of a pair of bodies."""
         k = p - static_pairs(model)
         low = int(0)

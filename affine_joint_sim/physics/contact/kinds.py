@@ -1,14 +1,15 @@
 """The kinds of contact: the static shape kinds and the families of pairs between two moving
 bodies, one descriptor each, the only list of them (no Warp, no NumPy).
 
-A fixed body's collision geometry becomes static shapes (``static_shapes``), each of a kind
+A fixed body's collision geometry becomes static shapes (``contact.shapes``), each of a kind
 here; a kind's code is its value in ``model.shape_kind``. A pair of two moving bodies is of a
-family here; its code is what ``body_pair`` (host ``pair_geometry``, kernel
-``contact_geometry``) returns for it, and its blocks follow ``BODY_FAMILIES`` (the points of
+family here; its code is what ``body_pair`` (host ``contact.pairs``, kernel
+``contact.geometry``) returns for it, and its blocks follow ``BODY_FAMILIES`` (the points of
 the first body against the faces of the other and back, then edges against edges). Every
 place that tells them apart compares with these codes, never with a bare number: the model
-build (``static_shapes``, ``primitives.static_surfaces``, ``contact_model``), the host's pair
-numbering and near list (``pair_geometry``) and the kernel (``contact_geometry``, ``contact``),
+build (``contact.shapes``, ``contact.primitives.static_surfaces``, ``contact.model``), the
+host's pair numbering and near list (``contact.pairs``) and the kernel (``contact.geometry``,
+``contact.terms``),
 whose ``shape_kind`` and ``shape_size`` fields are documented from this table. The pairs with
 a static side come first, numbered family by family: a contact point against each half-space
 and static shape, a moving edge against each static edge, a moving face against each static
