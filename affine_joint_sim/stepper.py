@@ -23,7 +23,7 @@ import warp as wp
 from affine_joint_sim.physics.energy import mechanical_energy
 from affine_joint_sim.physics.fields import (CONTACT_STATS, COUPLED_STATS, PROBLEM_COLUMNS,
                                              STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
-                                             array_sizes, device_model)
+                                             array_sizes, device_model, held_structs)
 from affine_joint_sim.physics.frames import FRAME_COLUMNS, POSE_COLUMNS
 from affine_joint_sim.physics.contact.report import REPORT_COLUMNS, REPORT_ROOM
 from affine_joint_sim.physics.joint_kinds import joint_kind
@@ -83,16 +83,6 @@ def _stat_layout(host) -> tuple[list[str], itemgetter]:
     return [every[c] for c in columns], itemgetter(*columns)
 
 
-def _held_at(struct, kind, field: str, device) -> wp.array:
-    """A one-element device array holding ``struct`` (of Warp struct ``kind``), whose address
-    field ``field`` is set to that array's (the GPU variant's out-of-line functions read the
-    struct there, by reference)."""
-    held = wp.empty(1, dtype=kind, device=device)
-    setattr(struct, field, held.ptr)
-    wp.copy(held, wp.array([struct], dtype=kind, device='cpu'))
-    return held
-
-
 def _chunks(envs: int, threads: int | None) -> list[tuple[int, int]]:
     """(first environment, count) of each thread's share of ``envs`` (even shares, the first
     ones one larger); ``threads`` None: one per core the process may use."""
@@ -121,9 +111,6 @@ class Stepper:
 
     # Host mirrors on the CPU too: runs the GPU's upload/download path where CI can test it.
     _mirror_on_cpu = False
-    # The GPU's step kernel variant on the CPU too (kernels.step_kernels(cuda=True)): its
-    # out-of-line functions, where CI can test them.
-    _gpu_variant_on_cpu = False
 
     def __init__(self, scene, device: str = 'cpu', num_envs: int | None = None,
                  on_problem=None, threads: int | None = None):
@@ -147,7 +134,6 @@ class Stepper:
         with summarised(f'scene {scene.name!r}'):     # one line for its meshes reduced
             self._host = build_model(scene)
         self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs,
-                               cuda=self.device.is_cuda or self._gpu_variant_on_cpu,
                                contact=bool(self._host.has_contact),
                                shapes=self._host.has_static_shapes)
         self._effort_limit = np.array([j.effort_limit for j in scene.joints])
@@ -753,11 +739,9 @@ class Stepper:
         state, control, scratch = (allocate(k, getattr(k.structs, group.capitalize()), group,
                                             sizes, dev)
                                    for group in ('state', 'control', 'scratch'))
-        if k.cuda:      # its out-of-line functions take these from one-element arrays
-            self._held = [_held_at(struct, getattr(k.structs, group.capitalize()),
-                                   f'{group}_address', dev)
-                          for group, struct in (('model', self._model), ('state', state),
-                                                ('control', control), ('scratch', scratch))]
+        # the step kernel's out-of-line functions take these from one-element arrays
+        self._held = held_structs(k, dev, model=self._model, state=state, control=control,
+                                  scratch=scratch)
         self._state, self._control, self._scratch = state, control, scratch
 
         separate = not self.device.is_cpu or self._mirror_on_cpu

@@ -68,28 +68,27 @@ VARIANTS = (('none', {'contact': False}), ('half-spaces', {'shapes': False}),
             ('world', {'bodies': False}), ('bodies', {'bodies': True}))
 
 
-def step_variants(cuda: bool = True):
-    """(precision, contact, the types namespace) of every step kernel variant a Stepper on a
-    GPU (``cuda``; else on the CPU) loads."""
+def step_variants():
+    """(precision, contact, the types namespace) of every step kernel variant a Stepper
+    loads."""
     import warp as wp
 
     from affine_joint_sim.physics.kernels import step_kernels
 
     for precision, scalar in (('float64', wp.float64), ('float32', wp.float32)):
         for contact, kind in VARIANTS:
-            yield precision, contact, step_kernels(scalar, cuda=cuda, **kind)
+            yield precision, contact, step_kernels(scalar, **kind)
 
 
-def register(cuda: bool = True) -> None:
-    """Build every step kernel a Stepper on a GPU (``cuda``; else on the CPU) loads."""
-    for _ in step_variants(cuda):
+def register() -> None:
+    """Build every step kernel a Stepper loads."""
+    for _ in step_variants():
         pass
 
 
 def modules() -> list[str]:
-    """The Warp module names of the GPU step kernel variants: what ``make gpu-prep`` compiles.
-    Building them builds the CPU pipelines too (their structs), whose step kernels, all
-    inlined, are no GPU's to load and would take NVRTC over ten minutes each."""
+    """The Warp module names of the step kernel variants: what ``make gpu-prep`` compiles for
+    sm_90, the same modules the CPU compiles."""
     return [t.step.module.name for _, _, t in step_variants()]
 
 

@@ -9,7 +9,8 @@ DOFs in scene order (12 per free body).
 import numpy as np
 import warp as wp
 
-from affine_joint_sim.physics.fields import allocate, array_sizes, device_model
+from affine_joint_sim.physics.fields import (allocate, array_sizes, device_model,
+                                             held_structs)
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
 from affine_joint_sim.physics.model import build_model
 
@@ -91,6 +92,8 @@ class Stages:
         self.state, self.control, self.scratch = (
             allocate(self.t, getattr(self.t.structs, group.capitalize()), group, sizes, device)
             for group in ('state', 'control', 'scratch'))
+        self._held = held_structs(self.t, device, model=self.model, state=self.state,
+                                  control=self.control, scratch=self.scratch)
         self.free = [b for b in range(nb) if not self.host.body_fixed[b]]
         nj = max(self.host.joint_count, 1)
         self._q = wp.zeros((1, nb), dtype=self.t.vec12, device=device)

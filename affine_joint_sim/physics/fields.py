@@ -28,7 +28,7 @@ from affine_joint_sim.physics.contact.kinds import SHAPE_KINDS
 __all__ = ['Field', 'FIELDS', 'GROUPS', 'STAT_INT_NAMES', 'STAT_FLOAT_NAMES', 'CONTACT_STATS',
            'COUPLED_STATS', 'PROBLEM_NAMES',
            'PROBLEM_COLUMNS', 'structs',
-           'allocate', 'device_model', 'fields_of', 'env_bytes', 'array_sizes']
+           'allocate', 'device_model', 'held_structs', 'fields_of', 'env_bytes', 'array_sizes']
 
 
 @dataclass(frozen=True)
@@ -121,8 +121,8 @@ FIELDS = _fields('model', [
     ('has_contact', 'int32', (), '-', '1: the scene has contact (every contact loop is skipped '
      'otherwise)'),
     ('model_address', 'uint64', (), '-', 'the device address of a one-element array holding '
-     'this Model: the GPU variant\'s out-of-line functions take the Model there, by reference '
-     '(Stepper; 0 on the CPU)'),
+     'this Model: the step kernel\'s out-of-line functions take the Model there, by reference '
+     '(set by the Stepper)'),
     ('contact_d_hat', 'scalar', (), 'm', 'barrier activation distance d̂'),
     ('contact_kappa', 'scalar', (), 'J/m^4', 'barrier stiffness κ'),
     ('point_body', 'int32', ('point',), '-', 'free body of each contact point'),
@@ -339,6 +339,21 @@ def allocate(t, struct, group, sizes: dict, device):
         shape = tuple(sizes[d] for d in f.shape)
         setattr(instance, f.name, wp.zeros(shape, dtype=_wp_type(t, f.dtype), device=device))
     return instance
+
+
+def held_structs(t, device, **structs) -> list:
+    """One-element device arrays holding each struct given by group (``model=``, ``state=``,
+    ...), each struct's ``<group>_address`` field set first to its array's address: the step
+    kernel's out-of-line functions read the structs there, by reference
+    (physics.out_of_line). The arrays must live as long as the structs are launched."""
+    held = []
+    for group, struct in structs.items():
+        kind = getattr(t.structs, group.capitalize())
+        array = wp.empty(1, dtype=kind, device=device)
+        setattr(struct, f'{group}_address', array.ptr)
+        wp.copy(array, wp.array([struct], dtype=kind, device='cpu'))
+        held.append(array)
+    return held
 
 
 def array_sizes(host, envs: int, chunks: int = 1) -> dict:

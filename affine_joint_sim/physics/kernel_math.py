@@ -33,20 +33,20 @@ __all__ = ['build', 'kernel_options', 'kernel_sources', 'source_salt']
 _NO_FUSION = '-ffp-contract=off'
 
 
-def kernel_options(cuda: bool = False) -> dict:
+def kernel_options() -> dict:
     """Warp module options of every kernel module: Warp's CPU compiler flags (the global
     setting: by default ``-march=native`` and its inlining and SLP options) without FMA
-    contraction. With ``cuda`` (the GPU variant, physics.out_of_line), optimization level 2,
-    the CPU's default: on CUDA it is NVRTC's ``--Ofast-compile=min``, under which ptxas keeps
-    a ``__noinline__`` function out of line (at level 3 it inlines every one of them again
-    and took 6–8 minutes over the step kernel with pairs of bodies); and NVRTC's compile-time
-    trace (a JSON file of each function's optimisation time beside the cubin), with which
-    NVRTC finished the step kernel in about a minute where without it it had not in five
+    contraction; optimization level 2, the CPU's default, on CUDA NVRTC's
+    ``--Ofast-compile=min``, under which ptxas keeps a ``__noinline__`` function out of line
+    (physics.out_of_line; at level 3 it inlines every one of them again and took 6–8 minutes
+    over the step kernel with pairs of bodies); and NVRTC's compile-time trace (a JSON file of
+    each function's optimisation time beside the cubin; the CPU's compile ignores it), with
+    which NVRTC finished the step kernel in about a minute where without it it had not in five
     (measured, not explained: docs/architecture.md, "The step kernel")."""
     flags = wp.config.cpu_compiler_flags
     flags = '-march=native' if flags is None else flags
     return {'cpu_compiler_flags': f'{flags} {_NO_FUSION}'.strip(), 'fuse_fp': False,
-            **({'optimization_level': 2, 'compile_time_trace': True} if cuda else {})}
+            'optimization_level': 2, 'compile_time_trace': True}
 
 
 def kernel_sources(modules) -> list[Path]:
@@ -191,4 +191,4 @@ def build(t) -> SimpleNamespace:
             l13 + z * (l15 + z * (l17 + z * (l19 + z * (l21 + z * l23)))))))))))
         return (k * ln2_lo + series) + k * ln2_hi
 
-    return SimpleNamespace(sin=sin, atan2=atan2, log=log, kernel_options=kernel_options(t.cuda))
+    return SimpleNamespace(sin=sin, atan2=atan2, log=log, kernel_options=kernel_options())

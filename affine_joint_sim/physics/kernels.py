@@ -36,7 +36,7 @@ _REPORTS = {}
 _SENSORS = {}
 
 
-def step_kernels(scalar, bodies: bool = False, cuda: bool = False, contact: bool = True,
+def step_kernels(scalar, bodies: bool = False, contact: bool = True,
                  shapes: bool = True) -> SimpleNamespace:
     """Types, structs, stage functions and the step kernel for ``scalar``, per kind of contact,
     each a kernel module of its own: without ``contact`` the step holds no contact code at all
@@ -44,21 +44,20 @@ def step_kernels(scalar, bodies: bool = False, cuda: bool = False, contact: bool
     shapes, meshes, edges or vertices: ``t.shapes``); with ``bodies``, the pipeline whose
     contact includes pairs of moving bodies (and the coupled solve) besides every static
     thing, so a scene whose bodies never touch each other runs code without any of it
-    (``t.bodies``; all three compile-time switches of the stages). With ``cuda``, the
-    functions a GPU compile keeps out of line (``t.cuda``). The structs are the CPU
-    pipeline's of the same pair kind (``bodies``, every static thing) whatever ``cuda``,
+    (``t.bodies``; all three compile-time switches of the stages). The big stages are compiled
+    once each, out of line, on either device (physics.out_of_line). The structs are those of
+    the pipeline of the same pair kind (``bodies``) with every static thing, whatever
     ``contact`` and ``shapes``, so the report, frame and sensor kernels built from that
     pipeline take any of its variants."""
     contact = bool(contact)
     bodies = bool(bodies) and contact
     shapes = (bool(shapes) or bodies) and contact
-    key = (scalar, bodies, bool(cuda), contact, shapes)
+    key = (scalar, bodies, contact, shapes)
     if key not in _BUILT:
         t = precision.types_for(scalar)
-        t.bodies, t.cuda, t.contact, t.shapes = bodies, bool(cuda), contact, shapes
+        t.bodies, t.contact, t.shapes = bodies, contact, shapes
         t.source_salt = _salt()
-        own = not cuda and shapes
-        t.structs = structs(t) if own else step_kernels(scalar, bodies).structs
+        t.structs = structs(t) if shapes else step_kernels(scalar, bodies).structs
         for stage in _STAGES:
             vars(t).update(vars(stage.build(t)))
         _BUILT[key] = t

@@ -41,7 +41,7 @@ def build(t) -> SimpleNamespace:
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
-    # the big stages out of line on a GPU (physics.out_of_line)
+    # the big stages out of line (physics.out_of_line)
     assemble, solve, solve_factored = apart(t, t.assemble), apart(t, t.solve), t.solve_factored
     incremental_potential = apart(t, t.incremental_potential)
     step_bound, touching, cover = apart(t, t.step_bound), apart(t, t.touching), t.cover

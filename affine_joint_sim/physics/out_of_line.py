@@ -1,15 +1,15 @@
-"""A stage function compiled once, out of line, in the GPU variant of the step kernel.
+"""A stage function compiled once, out of line, in the step kernel.
 
-A GPU compile inlines a Warp function at each of its call sites, and NVRTC's time grows much
+A compile inlines a Warp function at each of its call sites, and NVRTC's time grows much
 faster than the size of the one function it optimises (bench.inlining; docs/architecture.md,
-"The step kernel"): in the GPU variant (kernels.step_kernels(cuda=True)) the big stage
-functions are compiled once each, on their own (``inline=False``, kept so by ptxas at the
-variant's optimization level: kernel_math.kernel_options). Warp passes a struct by value, and
-an out-of-line call would copy the whole struct into local memory, so the out-of-line copy
-takes each struct argument (Model, State, Control, Scratch) by reference: the address of the
-one-element array holding it (its ``<group>_address`` field, set by the Stepper), whose fields
-NVVM loads only where the function reads them. On the CPU, Warp's compile is fast and the
-functions stay inline.
+"The step kernel"): the big stage functions are compiled once each, on their own
+(``inline=False``, kept so by ptxas at the kernels' optimization level:
+kernel_math.kernel_options). Warp passes a struct by value, and an out-of-line call would copy
+the whole struct into local memory, so the out-of-line copy takes each struct argument (Model,
+State, Control, Scratch) by reference: the address of the one-element array holding it (its
+``<group>_address`` field, set by the Stepper), whose fields the compiler loads only where the
+function reads them. The CPU's compile takes the same split: the same bits as every stage
+inlined, a shorter first compile and no slower steps (README, "On a GPU").
 
 The two functions are written out as source (Warp compiles a function from its source text)
 and registered with ``linecache`` so that Warp, ``inspect`` and bench.inlining read them as
@@ -26,11 +26,9 @@ __all__ = ['apart']
 
 
 def apart(t, f):
-    """``f`` (a Warp function of the types namespace ``t``) where ``t.cuda`` is off; else an
-    inline function of ``f``'s signature that calls ``f``'s out-of-line copy with the
-    addresses of its struct arguments (see the module's docstring)."""
-    if not t.cuda:
-        return f
+    """An inline function of ``f``'s signature (``f`` a Warp function of the types namespace
+    ``t``) that calls ``f``'s out-of-line copy with the addresses of its struct arguments (see
+    the module's docstring)."""
     groups = {getattr(t.structs, name): f'{name.lower()}_address' for name in vars(t.structs)}
     params = list(f.input_types.items())
     held = [name for name, kind in params if kind in groups]

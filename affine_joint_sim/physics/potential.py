@@ -25,7 +25,7 @@ def build(t) -> SimpleNamespace:
     affine, mass_times, ortho_energy = t.affine, t.mass_times, t.ortho_energy
     joint_energy, joint_coordinate, coordinate_terms = (t.joint_energy, t.joint_coordinate,
                                                         t.coordinate_terms)
-    # each out of line on a GPU (physics.out_of_line)
+    # each out of line (physics.out_of_line)
     contact_energy, friction_energy = apart(t, t.contact_energy), apart(t, t.friction_energy)
     damping_energy = apart(t, t.damping_energy)
 

@@ -36,9 +36,9 @@ RELEASE_HALVINGS = 48   # bisections of an opening pair's damper release (d̂ / 
 # Warp passes a struct argument by value: a call the C++ compiler keeps out of line copies the
 # whole Model (and Scratch) each time. The contact stages a step calls whatever is near are
 # inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact).
-# A GPU compile keeps the gathering of the near list out of line (it runs once a step and where
-# the margins widen): inlined at each of its call sites it was half of the step kernel that
-# NVRTC optimises as one function (bench.inlining; ``gather_near_apart``).
+# The gathering of the near list is out of line, its structs by reference (it runs once a step
+# and where the margins widen): inlined at each of its call sites it was half of the step
+# kernel that NVRTC optimises as one function (bench.inlining; ``gather_near_apart``).
 INLINE = True
 
 
@@ -398,7 +398,7 @@ def build(t) -> SimpleNamespace:
             at = gather_bodies(model, scratch, env, at)
         return at - start
 
-    gather = apart(t, gather_near)     # out of line on a GPU (physics.out_of_line)
+    gather = apart(t, gather_near)     # out of line (physics.out_of_line)
 
     @wp.func(inline=INLINE)
     def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
