@@ -3,7 +3,7 @@
 The C library's sin, cos, atan2, ... and BLAS/LAPACK pick an implementation by CPU features
 when they load (glibc's FMA and AVX2 variants, OpenBLAS's per-core kernels, NumPy's AVX-512
 loops), so they may round differently on another machine. Everything that turns a scene into
-the simulated model, and the kernels' own sin and atan2 (``physics.kernel_math``), use these
+the simulated model, and the kernels' own sin and atan2 (``physics.stages.kernel_math``), use these
 instead: only +, −, ×, ÷ and √, which IEEE 754 rounds the same way everywhere, in a fixed
 order. They are accurate to a few units in the last place (tested against the C library),
 not correctly rounded: what they guarantee is the same result on every machine

@@ -16,7 +16,7 @@ from pydantic import (BaseModel, BeforeValidator, Field, PrivateAttr,
                       ValidationError, model_validator)
 
 from affine_joint_sim.contact_schema import Collision, Contact, Ground
-from affine_joint_sim.physics.joint_kinds import JOINT_KIND_NAMES, joint_kind
+from affine_joint_sim.physics.host.joint_kinds import JOINT_KIND_NAMES, joint_kind
 from affine_joint_sim.schema_base import (Number, OneOf, PositiveFloat, StrictModel, Vec3,
                                           not_a_boolean)
 
@@ -102,7 +102,7 @@ class Body(StrictModel):
     linear_velocity: Vec3 = (0.0, 0.0, 0.0)
     angular_velocity: Vec3 = (0.0, 0.0, 0.0)
     fixed: bool = False
-    kappa: PositiveFloat | None = None    # Pa; None: from its joints' loads (physics.rigidity)
+    kappa: PositiveFloat | None = None    # Pa; None: from its joints' loads (physics.host.rigidity)
     # what it touches with (README.md#contact): 'shape' (its own), or a list of geometries
     collision: Literal['shape'] | list[Collision] | None = None
     friction: Annotated[Number, Field(ge=0.0)] | None = None   # its own Coulomb μ

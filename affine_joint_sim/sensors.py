@@ -1,5 +1,6 @@
 """Sensors of a scene (its ``sensors`` list; README.md#sensors): where each one reads, resolved
-once on the host, for the sensor kernel (``physics.sensing``) that ``Stepper.sensors`` replays.
+once on the host, for the sensor kernel (``physics.stages.sensing``) that ``Stepper.sensors``
+replays.
 
 A sensor sits on a *sensor frame*: the frame of the scene's ``frames`` its ``body`` names (a
 URDF link, welded ones included), else the body's own frame (for a YAML scene: the body's
@@ -35,7 +36,7 @@ __all__ = ['FIELDS', 'IMU', 'CONTACT', 'SensorSet']
 # The values of each type of sensor, with their sizes (Stepper.sensors keys)
 FIELDS = {'imu': {'orientation': 4, 'angular_velocity': 3, 'linear_acceleration': 3},
           'contact': {'force': 3, 'torque': 3}}
-IMU, CONTACT = 0, 1         # a sensor's kind in the sensor kernel (physics.sensing)
+IMU, CONTACT = 0, 1         # a sensor's kind in the sensor kernel (physics.stages.sensing)
 _KINDS = {'imu': IMU, 'contact': CONTACT}
 
 
@@ -43,7 +44,7 @@ class Mounts(NamedTuple):
     """Where the sensors read, one entry per sensor in scene order (the sensor kernel's
     inputs)."""
 
-    kind: np.ndarray        # physics.sensing.IMU or CONTACT (int32)
+    kind: np.ndarray        # physics.stages.sensing.IMU or CONTACT (int32)
     body: np.ndarray        # its body's index (int32)
     rotation: np.ndarray    # its frame's axes in the body frame (3×3 each)
     offset: np.ndarray      # its frame's origin in the body frame [m]

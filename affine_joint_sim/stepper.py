@@ -20,19 +20,19 @@ from operator import itemgetter
 import numpy as np
 import warp as wp
 
-from affine_joint_sim.physics.energy import mechanical_energy
-from affine_joint_sim.physics.fields import (CONTACT_STATS, COUPLED_STATS, PROBLEM_COLUMNS,
-                                             STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
-                                             array_sizes, device_model, held_structs)
-from affine_joint_sim.physics.frames import FRAME_COLUMNS, POSE_COLUMNS
+from affine_joint_sim.physics.host.energy import mechanical_energy
+from affine_joint_sim.physics.host.fields import (CONTACT_STATS, COUPLED_STATS, PROBLEM_COLUMNS,
+                                                  STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
+                                                  array_sizes, device_model, held_structs)
+from affine_joint_sim.physics.stages.frames import FRAME_COLUMNS, POSE_COLUMNS
 from affine_joint_sim.physics.contact.report import REPORT_COLUMNS, REPORT_ROOM
-from affine_joint_sim.physics.joint_kinds import joint_kind
+from affine_joint_sim.physics.host.joint_kinds import joint_kind
 from affine_joint_sim.physics.kernels import (frame_kernel, report_kernel, scalar_of,
                                               sensor_kernel, step_kernels)
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
 from affine_joint_sim.physics.contact.model import refuse_touching
-from affine_joint_sim.physics.model import build_model, largest_step_efforts
-from affine_joint_sim.physics.newton import HALVINGS
+from affine_joint_sim.physics.host.model import build_model, largest_step_efforts
+from affine_joint_sim.physics.solve.newton import HALVINGS
 from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap
 from affine_joint_sim.placement import body_rows, free_body
 from affine_joint_sim.poses import LinkFrames
@@ -42,7 +42,7 @@ from affine_joint_sim.sim_warnings import SimulationWarning, summarised
 
 __all__ = ['Stepper', 'SimulationWarning']
 
-_PROBLEMS = {      # by physics.fields.PROBLEM_NAMES
+_PROBLEMS = {      # by physics.host.fields.PROBLEM_NAMES
     'not_converged': 'Newton did not converge within newton_max_iter = {max_iter} iterations '
                      '(stats["converged"] is False; residual {residual:.3g} m/s); the step '
                      'keeps its last iterate',
@@ -189,7 +189,7 @@ class Stepper:
 
     @property
     def joint_types(self) -> list[str]:
-        """Each joint's type (physics.joint_kinds): 'revolute' (angles [rad], torques [N·m]),
+        """Each joint's type (physics.host.joint_kinds): 'revolute' (angles [rad], torques [N·m]),
         'prismatic' (distances [m], forces [N]) or 'fixed' (no coordinate, no command;
         reported as 0)."""
         return [j.type for j in self.scene.joints]
@@ -204,7 +204,8 @@ class Stepper:
     @property
     def step_effort_bounds(self) -> np.ndarray:
         """Per joint, the largest |torque| [N·m] or |force| [N] a step of dt can represent
-        (physics.model.largest_step_efforts): a command beyond it is not physical at this dt."""
+        (physics.host.model.largest_step_efforts): a command beyond it is not physical at this
+        dt."""
         return largest_step_efforts(self._host)
 
     @property
@@ -520,7 +521,7 @@ class Stepper:
         the bodies of environment ``env``: frame i on body ``body[i]`` at pose ``local[i]``
         (4×4) in that body's frame. It returns a (n, 7) float64 array (valid until the next
         call): position [m] and quaternion (x, y, z, w), w ≥ 0, of R·local with R the rotation
-        nearest to the body's A (physics.frames). With ``parent`` (a body per frame, −1: the
+        nearest to the body's A (physics.stages.frames). With ``parent`` (a body per frame, −1: the
         world) and ``parent_local`` (4×4 each), each pose is in that parent frame instead (the
         transforms of /tf). One replay of a captured launch, no Python per frame."""
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
@@ -537,7 +538,7 @@ class Stepper:
 
     def _frame_reader(self, body, local, env, parent=None, parent_local=None):
         """``pose_reader``'s replay, one environment per frame (``env``): (a function that
-        replays it, the (n, FRAME_COLUMNS) host view of ``physics.frames``' rows it fills:
+        replays it, the (n, FRAME_COLUMNS) host view of ``physics.stages.frames``' rows it fills:
         position, quaternion, 4×4 transform)."""
         k = self._k
         local = np.asarray(local, dtype=np.float64).reshape(-1, 4, 4)
@@ -630,7 +631,7 @@ class Stepper:
         """Mechanical energy [J]: kinetic + gravity + orthogonality + joint springs (+ contact
         barriers) (per env).
 
-        BDF steps dissipate it; a passive system must not gain it (physics.energy)."""
+        BDF steps dissipate it; a passive system must not gain it (physics.host.energy)."""
         energy = mechanical_energy(self._host, self._read('q'), self._read('v'),
                                    self._read('joint_coordinate'))
         return energy if self._batched else float(energy[0])

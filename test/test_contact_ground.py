@@ -141,7 +141,7 @@ def test_a_scene_without_contact_reports_no_contact_statistics():
 
 
 def test_collision_geometry_becomes_contact_points_in_the_body_frame():
-    from affine_joint_sim.physics.model import build_model
+    from affine_joint_sim.physics.host.model import build_model
     scene = Scene.from_dict({
         'bodies': [{'name': 'base', 'fixed': True, 'mass': 1.0},
                    {'name': 'tool', 'shape': {'box': [0.2, 0.1, 0.1]}, 'mass': 1.0,

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from affine_joint_sim import Scene, Stepper
-from affine_joint_sim.physics.mass import body_mass_properties
+from affine_joint_sim.physics.host.mass import body_mass_properties
 from test_stepper import rk4_angle
 
 G = 9.81

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from affine_joint_sim import Stepper
-from affine_joint_sim.physics.fields import STAT_FLOAT_NAMES, STAT_INT_NAMES
+from affine_joint_sim.physics.host.fields import STAT_FLOAT_NAMES, STAT_INT_NAMES
 from affine_joint_sim.sim_warnings import SimulationWarning
 from test_extremes import pendulum
 from test_joints import every_joint_type

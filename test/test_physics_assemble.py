@@ -1,10 +1,10 @@
-"""Gradient and Hessian assembly (physics.assemble) against finite differences of the
-incremental potential (physics.potential) evaluated by the same stage functions."""
+"""Gradient and Hessian assembly (physics.stages.assemble) against finite differences of the
+incremental potential (physics.stages.potential) evaluated by the same stage functions."""
 
 import numpy as np
 import pytest
 
-from affine_joint_sim.physics.joint_kinds import PRISMATIC
+from affine_joint_sim.physics.host.joint_kinds import PRISMATIC
 from helpers.physics import Probe
 
 

@@ -1,12 +1,12 @@
-"""The one table of fields (physics.fields): structs, host model and allocation follow it."""
+"""The one table of fields (physics.host.fields): structs, host model and allocation follow it."""
 
 import numpy as np
 import pytest
 import warp as wp
 
-from affine_joint_sim.physics.fields import FIELDS, GROUPS, allocate, env_bytes, fields_of
+from affine_joint_sim.physics.host.fields import FIELDS, GROUPS, allocate, env_bytes, fields_of
 from affine_joint_sim.physics.kernels import step_kernels
-from affine_joint_sim.physics.model import HostModel, build_model
+from affine_joint_sim.physics.host.model import HostModel, build_model
 from test_joints import every_joint_type
 
 SIZES = {'env': 3, 'chunk': 2, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 3,

@@ -1,4 +1,4 @@
-"""A joint type is one unit (physics.joint_kinds, physics.joints): its descriptor, its module
+"""A joint type is one unit (physics.host.joint_kinds, physics.joints): its descriptor, its module
 with every function of the protocol, and dispatchers that reach every type."""
 
 import ast
@@ -9,7 +9,7 @@ import warp as wp
 
 from affine_joint_sim import Scene
 from affine_joint_sim.physics import joints
-from affine_joint_sim.physics.joint_kinds import JOINT_KIND_NAMES, JOINT_KINDS, joint_kind
+from affine_joint_sim.physics.host.joint_kinds import JOINT_KIND_NAMES, JOINT_KINDS, joint_kind
 from affine_joint_sim.physics.kernels import step_kernels
 from test_joints import every_joint_type
 

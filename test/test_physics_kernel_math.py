@@ -1,4 +1,4 @@
-"""The kernels' own sin and atan2 (physics.kernel_math) against the C library, in both
+"""The kernels' own sin and atan2 (physics.stages.kernel_math) against the C library, in both
 precisions: a few units in the last place, and atan2's (−π, π] convention."""
 
 import math
@@ -58,19 +58,20 @@ def test_sin_and_atan2_are_within_a_few_ulps(scalar, sin_ulps, atan2_ulps):
 
 def test_the_kernel_salt_digests_the_step_kernels_sources_and_no_host_code():
     from affine_joint_sim.physics import kernels
-    from affine_joint_sim.physics.kernel_math import kernel_sources
+    from affine_joint_sim.physics.stages.kernel_math import kernel_sources
 
     files = kernel_sources((kernels.precision, *kernels._STAGES))
     names = {'/'.join(path.parts[-2:]) for path in files}
     # the joint types' modules (imported by name), the field tables and the contact kinds the
     # stages import, the portable math outside physics/
     assert {'joints/revolute.py', 'joints/prismatic.py', 'joints/fixed.py',
-            'physics/joint_kinds.py', 'physics/fields.py', 'contact/geometry.py',
-            'contact/terms.py', 'contact/kinds.py', 'physics/precision.py',
+            'host/joint_kinds.py', 'host/fields.py', 'contact/geometry.py',
+            'contact/terms.py', 'contact/kinds.py', 'stages/precision.py',
             'affine_joint_sim/portable_math.py'} <= names
     # editing the host's model build, the report or sensor kernels, or the package's entry
     # points keeps every compiled step kernel
-    assert not names & {'physics/model.py', 'contact/model.py', 'contact/pairs.py',
-                        'contact/shapes.py', 'contact/report.py', 'physics/sensing.py',
-                        'physics/frames.py', 'physics/kernels.py', 'affine_joint_sim/stepper.py',
+    assert not names & {'host/model.py', 'contact/model.py', 'contact/pairs.py',
+                        'contact/shapes.py', 'contact/report.py', 'stages/sensing.py',
+                        'stages/frames.py', 'physics/kernels.py',
+                        'affine_joint_sim/stepper.py',
                         'affine_joint_sim/scene.py'}

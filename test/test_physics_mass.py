@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from affine_joint_sim.physics.mass import mass_properties
+from affine_joint_sim.physics.host.mass import mass_properties
 from affine_joint_sim.scene import Shape
 
 

@@ -1,4 +1,4 @@
-"""Newton (physics.newton): the warm start against a NumPy polar decomposition; updates that
+"""Newton (physics.solve.newton): the warm start against a NumPy polar decomposition; updates that
 follow turns against the matrix exponential; where it stops when rounding, not the tolerance,
 limits an update; near-massless links converge."""
 

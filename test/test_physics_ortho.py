@@ -1,4 +1,4 @@
-"""Orthogonality energy, gradient and Newton's PSD Hessian (physics.ortho) against finite
+"""Orthogonality energy, gradient and Newton's PSD Hessian (physics.stages.ortho) against finite
 differences of the analytic gradient and of AAᵀ − I: the Gauss–Newton Hessian where the term
 it drops is small against the body's inertia, else the projection of the exact Hessian."""
 
@@ -7,7 +7,7 @@ import pytest
 import warp as wp
 
 from affine_joint_sim.physics.kernels import step_kernels
-from affine_joint_sim.physics.ortho import GAUSS_NEWTON_SHARE
+from affine_joint_sim.physics.stages.ortho import GAUSS_NEWTON_SHARE
 from helpers.physics import random_rotation as _random_rotation
 
 K = step_kernels(wp.float64)

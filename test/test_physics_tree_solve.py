@@ -1,4 +1,4 @@
-"""The block-tree Cholesky solve (physics.tree_solve) against a dense NumPy solve."""
+"""The block-tree Cholesky solve (physics.solve.tree_solve) against a dense NumPy solve."""
 
 import numpy as np
 

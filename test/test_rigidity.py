@@ -1,5 +1,5 @@
-"""Each body's rigidity from its joints' loads (physics.rigidity): a light link carrying a heavy
-one strains by at most the target, a given kappa is kept, and float32 keeps resolving turns.
+"""Each body's rigidity from its joints' loads (physics.host.rigidity): a light link carrying a
+heavy one strains by at most the target, a given kappa is kept, and float32 keeps resolving turns.
 
 Truth: the strain ‖AAᵀ − I‖ of the light link measured in the running simulation.
 """
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from affine_joint_sim import Scene, Stepper
-from affine_joint_sim.physics.model import build_model
-from affine_joint_sim.physics.rigidity import DEFAULT_KAPPA, RESOLUTION, TARGET_STRAIN
+from affine_joint_sim.physics.host.model import build_model
+from affine_joint_sim.physics.host.rigidity import DEFAULT_KAPPA, RESOLUTION, TARGET_STRAIN
 
 
 def wrist(kappa=None, precision='float64', dt=1e-3):

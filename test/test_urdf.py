@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from affine_joint_sim.bench.references import RigidTree
-from affine_joint_sim.physics.model import build_model
+from affine_joint_sim.physics.host.model import build_model
 from affine_joint_sim.scene import Scene, SceneError
 from affine_joint_sim.sim_warnings import SimulationDetail, SimulationWarning
 from affine_joint_sim.stepper import Stepper

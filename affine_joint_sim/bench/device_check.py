@@ -188,10 +188,10 @@ def _timed(sim, seconds: float) -> tuple[float, float]:
 
 
 def _env_bytes(scene) -> int:
-    """Device bytes one environment of ``scene`` takes (physics.fields.env_bytes)."""
-    from affine_joint_sim.physics.fields import array_sizes, env_bytes
+    """Device bytes one environment of ``scene`` takes (physics.host.fields.env_bytes)."""
+    from affine_joint_sim.physics.host.fields import array_sizes, env_bytes
     from affine_joint_sim.physics.kernels import scalar_of, step_kernels
-    from affine_joint_sim.physics.model import build_model
+    from affine_joint_sim.physics.host.model import build_model
 
     return env_bytes(step_kernels(scalar_of(scene.solver.precision)),
                      array_sizes(build_model(scene), 1))

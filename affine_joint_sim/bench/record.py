@@ -100,7 +100,7 @@ def fast(scene: str, settings: Settings, record: bool) -> dict:
 
 def _node_topics(scene: str):
     """The topics the node records for ``scene``: every joint's commands and the rest."""
-    from affine_joint_sim.physics.joint_kinds import joint_kind
+    from affine_joint_sim.physics.host.joint_kinds import joint_kind
     from affine_joint_sim.resources import scene_path
     from affine_joint_sim.ros.recorder import BagTopic
     from affine_joint_sim.ros.topics import JOINT_COMMAND_KEYS, load_topics

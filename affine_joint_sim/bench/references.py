@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from affine_joint_sim.physics.mass import body_mass_properties
+from affine_joint_sim.physics.host.mass import body_mass_properties
 from affine_joint_sim.rotations import axis_rotation, rotation_matrix
 
 __all__ = ['RigidTree', 'rigid_inertia']

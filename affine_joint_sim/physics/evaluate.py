@@ -9,10 +9,10 @@ DOFs in scene order (12 per free body).
 import numpy as np
 import warp as wp
 
-from affine_joint_sim.physics.fields import (allocate, array_sizes, device_model,
-                                             held_structs)
+from affine_joint_sim.physics.host.fields import (allocate, array_sizes, device_model,
+                                                  held_structs)
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
-from affine_joint_sim.physics.model import build_model
+from affine_joint_sim.physics.host.model import build_model
 
 __all__ = ['Stages']
 

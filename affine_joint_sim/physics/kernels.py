@@ -15,15 +15,16 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics import (affine, assemble, commands, commit, coupled_solve, frames,
-                                      joint_terms, joints, kernel_math, newton, ortho,
-                                      potential, precision, prediction, sensing, step,
-                                      tree_solve)
+from affine_joint_sim.physics import joints
+from affine_joint_sim.physics.solve import coupled_solve, newton, tree_solve
+from affine_joint_sim.physics.stages import (affine, assemble, commands, commit, frames,
+                                             joint_terms, kernel_math, ortho, potential,
+                                             precision, prediction, sensing, step)
 from affine_joint_sim.physics.contact import geometry as contact_geometry
 from affine_joint_sim.physics.contact import report
 from affine_joint_sim.physics.contact import terms as contact_terms
-from affine_joint_sim.physics.fields import structs
-from affine_joint_sim.physics.kernel_math import source_salt
+from affine_joint_sim.physics.host.fields import structs
+from affine_joint_sim.physics.stages.kernel_math import source_salt
 
 __all__ = ['step_kernels', 'scalar_of', 'frame_kernel', 'report_kernel', 'sensor_kernel']
 
@@ -45,7 +46,7 @@ def step_kernels(scalar, bodies: bool = False, contact: bool = True,
     contact includes pairs of moving bodies (and the coupled solve) besides every static
     thing, so a scene whose bodies never touch each other runs code without any of it
     (``t.bodies``; all three compile-time switches of the stages). The big stages are compiled
-    once each, out of line, on either device (physics.out_of_line). The structs are those of
+    once each, out of line, on either device (physics.stages.out_of_line). The structs are those of
     the pipeline of the same pair kind (``bodies``) with every static thing, whatever
     ``contact`` and ``shapes``, so the report, frame and sensor kernels built from that
     pipeline take any of its variants."""
@@ -76,12 +77,12 @@ def scalar_of(precision: str):
 
 
 def frame_kernel(scalar):
-    """The frame-pose kernel of ``physics.frames`` for ``scalar`` (built on first use)."""
+    """The frame-pose kernel of ``physics.stages.frames`` for ``scalar`` (built on first use)."""
     return _frames(scalar).frame_poses
 
 
 def _frames(scalar):
-    """``physics.frames``'s namespace for ``scalar`` (built once)."""
+    """``physics.stages.frames``'s namespace for ``scalar`` (built once)."""
     if scalar not in _FRAMES:
         _FRAMES[scalar] = frames.build(step_kernels(scalar))
     return _FRAMES[scalar]
@@ -102,7 +103,7 @@ def _report(scalar, bodies: bool):
 
 
 def sensor_kernel(scalar, bodies: bool = False, contact: bool = False):
-    """The sensor kernel of ``physics.sensing`` for ``scalar`` and the pipeline with or
+    """The sensor kernel of ``physics.stages.sensing`` for ``scalar`` and the pipeline with or
     without pairs of bodies (its structs), with the contact sensors' code where ``contact``
     (built on first use)."""
     key = (scalar, bool(bodies), bool(contact))

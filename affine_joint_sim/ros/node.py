@@ -31,7 +31,7 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from std_srvs.srv import SetBool, Trigger
 
-from affine_joint_sim.physics.joint_kinds import joint_kind
+from affine_joint_sim.physics.host.joint_kinds import joint_kind
 from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.collector import CollectorPauses, settle
 from affine_joint_sim.ros.commands import CommandBuffer

@@ -32,7 +32,7 @@ from pydantic import Field, ValidationError
 
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Contact, Ground, Origin
-from affine_joint_sim.physics.mass import inertia_mass_properties
+from affine_joint_sim.physics.host.mass import inertia_mass_properties
 from affine_joint_sim.rotations import (axis_rotation, pose_matrix, quaternion_from_matrix,
                                         rpy_from_matrix)
 from affine_joint_sim.scene import (Body, Number, SceneError, SceneName, SceneSettings,

@@ -16,7 +16,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from affine_joint_sim.physics.mass import body_mass_properties
+from affine_joint_sim.physics.host.mass import body_mass_properties
 from affine_joint_sim.rotations import axis_rotation, rotation_matrix
 from affine_joint_sim.viz.drawables import drawables
 

@@ -19,7 +19,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.stages.out_of_line import apart
 from affine_joint_sim.physics.contact.kinds import (BOX, CAPSULE, CYLINDER, EDGE_EDGE,
                                                     POINT_FACE, TRIANGLE)
 
@@ -394,7 +394,7 @@ def build(t) -> SimpleNamespace:
         d, n = distance(model, q, i, p - i * statics(model))
         return d, n, model.point_rest[i], model.point_radius[i], vec3(zero, zero, zero), zero
 
-    # called from some thirty places: out of line (physics.out_of_line)
+    # called from some thirty places: out of line (physics.stages.out_of_line)
     gap = apart(t, pair_gap)
 
     @wp.func(inline=True)

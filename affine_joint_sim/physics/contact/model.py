@@ -1,6 +1,6 @@
 """Host-side contact model: a scene's collision geometry as contact points, its ground as
 half-spaces and its fixed bodies' geometry as static shapes (``contact.shapes``; the model
-fields of physics.fields under ``has_contact``), and the refusal of a scene whose initial state
+fields of physics.host.fields under ``has_contact``), and the refusal of a scene whose initial state
 already touches (docs/physics.md#contact).
 
 A contact point is a rest point x̄ of a free body (COM-centred body frame) with a radius r: a

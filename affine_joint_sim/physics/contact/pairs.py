@@ -2,7 +2,7 @@
 points as the kernel's ``contact.geometry.pair_gap`` computes them (refusing a touching scene,
 ``Stepper.energy``, ``Stepper.contacts``; the last bits may differ from the kernel's).
 
-Pairs are numbered as in the model (physics.fields ``pair``): point × static thing, then
+Pairs are numbered as in the model (physics.host.fields ``pair``): point × static thing, then
 moving edge × static edge, then moving face × static vertex (the static pairs), then the pairs
 of bodies that may touch (``touch_blocks``).
 """

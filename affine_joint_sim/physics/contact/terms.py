@@ -18,7 +18,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.stages.out_of_line import apart
 from affine_joint_sim.physics.contact.kinds import TRIANGLE
 
 __all__ = ['ADVANCE_STEPS', 'ARRIVING', 'IMPACT_ACCELERATION', 'IMPACT_SHARE',
@@ -398,7 +398,7 @@ def build(t) -> SimpleNamespace:
             at = gather_bodies(model, scratch, env, at)
         return at - start
 
-    gather = apart(t, gather_near)     # out of line (physics.out_of_line)
+    gather = apart(t, gather_near)     # out of line (physics.stages.out_of_line)
 
     @wp.func(inline=INLINE)
     def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,

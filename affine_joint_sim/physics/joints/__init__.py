@@ -1,6 +1,6 @@
 """Joint types: one module per type, and the one dispatch point on ``model.joint_type``.
 
-Each type of ``physics.joint_kinds.JOINT_KINDS`` has a module here named after it whose
+Each type of ``physics.host.joint_kinds.JOINT_KINDS`` has a module here named after it whose
 ``build(t)`` provides every Warp function of ``PROTOCOL`` (a type without a coordinate or a
 command provides explicit no-ops) and whose host functions ``linear_pairs`` and
 ``nonlinear_residuals`` give its residuals to the model build and the host energy. The
@@ -15,7 +15,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.joint_kinds import JOINT_KINDS
+from affine_joint_sim.physics.host.joint_kinds import JOINT_KINDS
 
 __all__ = ['build', 'PROTOCOL', 'HOST_PROTOCOL', 'type_module', 'host_functions']
 

@@ -2,7 +2,7 @@
 
 Energy K/2 (|c_P − c_C|² + |t_P − t_C|² + |n_P − n_C|² + |b_P − b_C|²) with c_k = x_k(c̄_k) and
 t_k, n_k, b_k = A_k times the rest copies of the world axes: linear in q, so its Hessian blocks
-are the constants of physics.model. It has no coordinate (0) and takes no command: its
+are the constants of physics.host.model. It has no coordinate (0) and takes no command: its
 functions for those are explicit no-ops.
 """
 

@@ -2,7 +2,7 @@
 
 With c_k = x_k(c̄_k) the anchor (x0 at t = 0) and t_k = A_k t̄_k, n_k, b_k the joint frame on
 each body, δ = c_C − c_P: energy K/2 (|δ × t_P|² + |δ × t_C|² + |n_P − n_C|² + |b_P − b_C|²).
-The frame terms are linear in q (constant Hessian blocks from physics.model); the axis terms
+The frame terms are linear in q (constant Hessian blocks from physics.host.model); the axis terms
 are not: their Hessian is the Gauss–Newton K Σ ∇C ∇Cᵀ (PSD; exact where the joint holds).
 Coordinate d(q) = ½ δ·(t_P + t_C) [m], positive when the child moves along x1 − x0. The force
 f [N] acts along the symmetrised axis ê = ½(t̂_P + t̂_C): +f ê on the child, −f ê on the parent,

@@ -1,7 +1,7 @@
 """Revolute joint (UID 18) and its scalar torque (UID 668): docs/physics.md#revolute-joint.
 
 Energy K/2 (|d0|² + |d1|²) with anchor gaps d_m = x_P(u_m) − x_C(w_m) (linear in q, so its
-Hessian is the constant of physics.model's joint blocks); coordinate θ(q), the right-hand
+Hessian is the constant of physics.host.model's joint blocks); coordinate θ(q), the right-hand
 rotation of the child against the parent about x1 − x0, and its gradient; the torque
 enters q̃ explicitly,
 by libuipc's lever-arm force or its generalized couple (docs/physics.md#revolute-torque).
@@ -11,7 +11,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import LEVER_ARM
+from affine_joint_sim.physics.host.codes import LEVER_ARM
 
 __all__ = ['build', 'linear_pairs', 'nonlinear_residuals']
 

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import BDF2
+from affine_joint_sim.physics.host.codes import BDF2
 
 __all__ = ['build']
 

@@ -22,7 +22,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.stages.out_of_line import apart
 
 __all__ = ['HALVINGS', 'build']
 
@@ -41,7 +41,7 @@ def build(t) -> SimpleNamespace:
     update_roundoff, unit_roundoff = t.update_roundoff, t.unit_roundoff
     Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
                                       t.structs.Scratch)
-    # the big stages out of line (physics.out_of_line)
+    # the big stages out of line (physics.stages.out_of_line)
     assemble, solve, solve_factored = apart(t, t.assemble), apart(t, t.solve), t.solve_factored
     incremental_potential = apart(t, t.incremental_potential)
     step_bound, touching, cover = apart(t, t.step_bound), apart(t, t.touching), t.cover

@@ -12,14 +12,14 @@ import numpy as np
 
 from affine_joint_sim import portable_math as pm
 from affine_joint_sim.physics.contact.model import contact_arrays
-from affine_joint_sim.physics.codes import (BDF1, BDF2, CONTINUOUS, GENERALIZED, LEVER_ARM,
-                                            WRAPPED)
-from affine_joint_sim.physics.joint_kinds import JOINT_KINDS, joint_kind
+from affine_joint_sim.physics.host.codes import (BDF1, BDF2, CONTINUOUS, GENERALIZED, LEVER_ARM,
+                                                 WRAPPED)
+from affine_joint_sim.physics.host.joint_kinds import JOINT_KINDS, joint_kind
 from affine_joint_sim.physics.joints import host_functions
-from affine_joint_sim.physics.fields import fields_of
-from affine_joint_sim.physics.mass import body_mass_properties
+from affine_joint_sim.physics.host.fields import fields_of
+from affine_joint_sim.physics.host.mass import body_mass_properties
 from affine_joint_sim.physics.contact.pairs import pair_total
-from affine_joint_sim.physics.rigidity import body_rigidity
+from affine_joint_sim.physics.host.rigidity import body_rigidity
 from affine_joint_sim.rotations import rotation_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning
 
@@ -30,7 +30,7 @@ __all__ = ['HostModel', 'build_model', 'jacobian', 'direction_jacobian', 'linear
 class HostModel:
     """Constant model data of one scene (shared by all environments), NumPy float64.
 
-    Its attributes are exactly the model fields of ``physics.fields.FIELDS`` (names, units and
+    Its attributes are exactly the model fields of ``physics.host.fields.FIELDS`` (names, units and
     shapes are documented there) plus host-only ones: ``precision``, ``active_terms`` (the
     terms a step evaluates), ``body_q0`` and ``body_v0`` (initial state and velocity, (nb, 12))
     and ``static_names`` (the name of each half-space, then each static shape, then the fixed
@@ -69,7 +69,7 @@ class HostModel:
 
     @property
     def pair_count(self) -> int:
-        """Contact pairs numbered (physics.fields ``pair``)."""
+        """Contact pairs numbered (physics.host.fields ``pair``)."""
         return pair_total(vars(self))
 
 

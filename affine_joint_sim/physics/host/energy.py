@@ -14,7 +14,7 @@ import numpy as np
 
 from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap, pair_weight
 from affine_joint_sim.physics.joints import host_functions
-from affine_joint_sim.physics.model import HostModel, residual_jacobians
+from affine_joint_sim.physics.host.model import HostModel, residual_jacobians
 
 __all__ = ['barrier_energy', 'mechanical_energy']
 
@@ -79,7 +79,7 @@ def _contact_energy(model: HostModel, q: np.ndarray) -> np.ndarray:
 
 
 def _limit_energy(model: HostModel, k: int, x: np.ndarray) -> np.ndarray:
-    """The cubic limit penalty of joint k at coordinates x (physics.joint_terms) [J·s²]."""
+    """The cubic limit penalty of joint k at coordinates x (physics.stages.joint_terms) [J·s²]."""
     s, lower, upper = (model.joint_limit_strength[k], model.joint_limit_lower[k],
                        model.joint_limit_upper[k])
     if s == 0.0:

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.stages.out_of_line import apart
 
 __all__ = ['build']
 
@@ -186,7 +186,7 @@ def build(t) -> SimpleNamespace:
             target[env, b] = backward_solve(scratch.factor[env, b],
                                             scratch.pivot_inverse[env, b], r)
 
-    # three call sites with pairs of bodies: out of line (physics.out_of_line)
+    # three call sites with pairs of bodies: out of line (physics.stages.out_of_line)
     solve_factored_into = apart(t, solve_factored_into)
 
     @wp.func

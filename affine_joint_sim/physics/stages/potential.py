@@ -1,7 +1,7 @@
 """The incremental potential E(q) of one environment, for the line search.
 
 E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q)
-+ Σ_joints φ(x(q)) (limit, drive, damping: physics.joint_terms) + dt² Σ b(d) (contact with
++ Σ_joints φ(x(q)) (limit, drive, damping: physics.stages.joint_terms) + dt² Σ b(d) (contact with
 static half-spaces: physics.contact.terms, +∞ on penetration) + Σ μ dt²λ f0(|u|) (lagged friction);
 the joint terms carry no dt².
 kinetic_scale is 1 (BDF1) or 9/4 (BDF2). See docs/physics.md#incremental-potential.
@@ -11,7 +11,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.stages.out_of_line import apart
 
 __all__ = ['build']
 
@@ -25,7 +25,7 @@ def build(t) -> SimpleNamespace:
     affine, mass_times, ortho_energy = t.affine, t.mass_times, t.ortho_energy
     joint_energy, joint_coordinate, coordinate_terms = (t.joint_energy, t.joint_coordinate,
                                                         t.coordinate_terms)
-    # each out of line (physics.out_of_line)
+    # each out of line (physics.stages.out_of_line)
     contact_energy, friction_energy = apart(t, t.contact_energy), apart(t, t.friction_energy)
     damping_energy = apart(t, t.damping_energy)
 

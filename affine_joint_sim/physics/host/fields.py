@@ -69,7 +69,7 @@ FIELDS = _fields('model', [
     ('dt', 'scalar', (), 's', 'time step'),
     ('gravity', 'vec3', (), 'm/s^2', 'gravity acceleration, world'),
     ('has_gravity', 'int32', (), '-', '0 when gravity is zero: the term is skipped'),
-    ('integrator', 'int32', (), '-', 'BDF1 | BDF2 (physics.codes)'),
+    ('integrator', 'int32', (), '-', 'BDF1 | BDF2 (physics.host.codes)'),
     ('newton_tol', 'scalar', (), 'm/s',
      'update displacement / dt at convergence (or its rounding floor, if larger)'),
     ('newton_max_iter', 'int32', (), '-', 'Newton iterations per step at most'),
@@ -89,7 +89,7 @@ FIELDS = _fields('model', [
     ('elim_order', 'int32', F, '-', 'free bodies leaves-first (fill-in free elimination)'),
     ('elim_parent', 'int32', B, '-', 'tree parent in the elimination, -1 for a root'),
     ('elim_offdiag', 'mat12', B, 'kg', 'constant coupling block H[b, elim_parent[b]]'),
-    ('joint_type', 'int32', J, '-', 'JointKind.code (physics.joint_kinds)'),
+    ('joint_type', 'int32', J, '-', 'JointKind.code (physics.host.joint_kinds)'),
     ('joint_parent', 'int32', J, '-', 'parent body index (libuipc left, i)'),
     ('joint_child', 'int32', J, '-', 'child body index (libuipc right, j)'),
     ('joint_stiffness', 'scalar', J, 'kg', 'K = strength_ratio (m_P + m_C)'),
@@ -108,8 +108,8 @@ FIELDS = _fields('model', [
     ('joint_parent_binormal', 'vec3', J, '-', 'b̄ of the joint frame in the parent rest frame'),
     ('joint_child_normal', 'vec3', J, '-', 'n̄ of the joint frame in the child rest frame'),
     ('joint_child_binormal', 'vec3', J, '-', 'b̄ of the joint frame in the child rest frame'),
-    ('joint_torque_model', 'int32', J, '-', 'LEVER_ARM | GENERALIZED (physics.codes)'),
-    ('joint_angle_mode', 'int32', J, '-', 'WRAPPED | CONTINUOUS (physics.codes)'),
+    ('joint_torque_model', 'int32', J, '-', 'LEVER_ARM | GENERALIZED (physics.host.codes)'),
+    ('joint_angle_mode', 'int32', J, '-', 'WRAPPED | CONTINUOUS (physics.host.codes)'),
     ('joint_state_terms', 'int32', J, '-', '1: the joint has a limit, drive or damping term'),
     ('joint_limit_lower', 'scalar', J, 'rad | m', 'limit l on the coordinate'),
     ('joint_limit_upper', 'scalar', J, 'rad | m', 'limit u on the coordinate'),
@@ -307,7 +307,7 @@ def structs(t) -> SimpleNamespace:
         name = group.capitalize()
         cls = type(f'{name}_{t.name}', (), {
             '__annotations__': {f.name: _annotation(t, f) for f in fields_of(group)},
-            '__module__': __name__, '__doc__': f'{name} fields of physics.fields.FIELDS.'})
+            '__module__': __name__, '__doc__': f'{name} fields of physics.host.fields.FIELDS.'})
         made[name] = wp.struct(cls)
     return SimpleNamespace(**made)
 
@@ -345,7 +345,7 @@ def held_structs(t, device, **structs) -> list:
     """One-element device arrays holding each struct given by group (``model=``, ``state=``,
     ...), each struct's ``<group>_address`` field set first to its array's address: the step
     kernel's out-of-line functions read the structs there, by reference
-    (physics.out_of_line). The arrays must live as long as the structs are launched."""
+    (physics.stages.out_of_line). The arrays must live as long as the structs are launched."""
     held = []
     for group, struct in structs.items():
         kind = getattr(t.structs, group.capitalize())

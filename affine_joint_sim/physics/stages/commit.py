@@ -11,8 +11,8 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.codes import BDF2, CONTINUOUS
-from affine_joint_sim.physics.fields import PROBLEM_COLUMNS, STAT_FLOAT_NAMES, STAT_INT_NAMES
+from affine_joint_sim.physics.host.codes import BDF2, CONTINUOUS
+from affine_joint_sim.physics.host.fields import PROBLEM_COLUMNS, STAT_FLOAT_NAMES, STAT_INT_NAMES
 
 __all__ = ['build']
 
@@ -150,7 +150,7 @@ def build(t) -> SimpleNamespace:
                     iterations: int, halvings: int, converged: int, failures: int, aliased: int,
                     dropped: int, finite: int, rejected: int, residual: scalar, inner: int,
                     stalls: int, gap: scalar, strain: scalar):
-        """The step's statistics, addressed by the names of physics.fields (with contact: the
+        """The step's statistics, addressed by the names of physics.host.fields (with contact: the
         smallest distance to a static thing and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
         step's Newton status does not count: its state was not kept)."""

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.out_of_line import apart
+from affine_joint_sim.physics.stages.out_of_line import apart
 
 __all__ = ['build']
 
@@ -31,7 +31,7 @@ def build(t) -> SimpleNamespace:
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
     limit_penetration = t.limit_penetration
-    # each out of line (physics.out_of_line)
+    # each out of line (physics.stages.out_of_line)
     add_contact, add_friction = apart(t, t.add_contact), apart(t, t.add_friction)
     add_damping = apart(t, t.add_damping)
 
@@ -110,7 +110,7 @@ def build(t) -> SimpleNamespace:
                        wp.outer(d2 * x_child, x_child))
         return untrusted
 
-    # each out of line (physics.out_of_line): inlined together into the assembly,
+    # each out of line (physics.stages.out_of_line): inlined together into the assembly,
     # their 12×12 blocks took 30 KB of its stack frame there (float64)
     add_nonlinear_blocks = apart(t, add_nonlinear_blocks)
     add_coordinate_terms = apart(t, add_coordinate_terms)

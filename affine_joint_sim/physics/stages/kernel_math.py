@@ -38,7 +38,7 @@ def kernel_options() -> dict:
     setting: by default ``-march=native`` and its inlining and SLP options) without FMA
     contraction; optimization level 2, the CPU's default, on CUDA NVRTC's
     ``--Ofast-compile=min``, under which ptxas keeps a ``__noinline__`` function out of line
-    (physics.out_of_line; at level 3 it inlines every one of them again and took 6–8 minutes
+    (physics.stages.out_of_line; at level 3 it inlines every one of them again and took 6–8 minutes
     over the step kernel with pairs of bodies); and NVRTC's compile-time trace (a JSON file of
     each function's optimisation time beside the cubin; the CPU's compile ignores it), with
     which NVRTC finished the step kernel in about a minute where without it it had not in five
