@@ -46,15 +46,40 @@ def test_non_finite_torque_is_rejected_and_the_last_good_one_kept(value):
 
 def test_joint_commands_apply_the_valid_entries_and_name_the_bad_ones():
     buffer, sim = CommandBuffer(['a', 'b']), FakeStepper()
-    problems = buffer.joint_commands(['b', 'zz', 'a'], [1.0, 2.0, math.nan])
+    problems = buffer.joint_commands(['b', 'zz', 'a'], [1.0, 2.0, math.inf])
     assert len(problems) == 2
     assert "unknown joint 'zz' (joints: a, b)" in problems[0] and 'not finite' in problems[1]
     buffer.apply(sim, 0.0)
     assert sim.torque == {'b': 1.0}
-    message = Msg(name=['a'], effort=[1.0, 2.0])
+    message = Msg(name=['a'], effort=[1.0, 2.0], position=[], velocity=[])
     assert buffer.malformed('joint_commands', message) == '1 names but 2 efforts: message dropped'
     assert buffer.take('joint_commands', None, message) == [buffer.malformed('joint_commands',
                                                                              message)]
+
+
+def test_joint_commands_carry_positions_and_efforts_as_the_topic_hardware_interface_sends():
+    # ros2_control's JointStateTopicSystem: every joint named, one array per command interface
+    # the joints declare, the others empty; NaN leaves a command as it is
+    buffer = CommandBuffer(['a', 'b', 'c'], drive_joints=['a', 'b'])
+    sim = FakeStepper()
+    message = Msg(name=['a', 'b', 'c'], position=[0.3, math.nan, 0.1], velocity=[], effort=[])
+    assert buffer.take('joint_commands', None, message) == [
+        "joint 'c' has no drive: its position commands are ignored (said once)"]
+    buffer.apply(sim, 0.0)
+    assert sim.target == {'a': 0.3} and sim.torque == {}
+    mixed = Msg(name=['b', 'a'], position=[0.2, math.nan], velocity=[],
+                effort=[math.nan, 1.5])
+    assert buffer.take('joint_commands', None, mixed) == []
+    buffer.apply(sim, 0.01)
+    assert sim.target == {'a': 0.3, 'b': 0.2} and sim.torque == {'a': 1.5}
+    assert buffer.malformed('joint_commands', Msg(name=['a', 'b'], position=[0.1], velocity=[],
+                                                  effort=[])) == (
+        '2 names but 1 positions: message dropped')
+    speeds = Msg(name=['a'], position=[], velocity=[0.5], effort=[])
+    assert buffer.take('joint_commands', None, speeds) == [
+        'velocity commands on joint_commands are not taken (no velocity drive): ignored '
+        '(said once)']
+    assert buffer.take('joint_commands', None, speeds) == []
 
 
 def test_timeout_drops_a_held_torque_once_and_a_new_command_rearms_it():
@@ -89,7 +114,8 @@ def test_take_dispatches_by_topic_and_names_unknown_joints():
     buffer, sim = CommandBuffer(['a', 'b']), FakeStepper()
     assert buffer.take('joint_torque', 'a', Msg(data=1.0)) == []
     assert buffer.take('joint_enable', 'b', Msg(data=False)) == []
-    assert 'is disabled' in buffer.take('joint_commands', None, Msg(name=['b'], effort=[2.0]))[0]
+    assert 'is disabled' in buffer.take('joint_commands', None, Msg(
+        name=['b'], effort=[2.0], position=[], velocity=[]))[0]
     assert 'unknown joint' in buffer.take('joint_enable', 'zz', Msg(data=True))[0]
     assert 'not finite' in buffer.take('joint_torque', 'a', Msg(data=math.nan))[0]
     buffer.apply(sim, 0.0)

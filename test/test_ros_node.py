@@ -121,6 +121,44 @@ def test_position_commands_drive_the_joints_that_have_a_drive(sim, ros_node, wai
     assert "joint 'elbow' has no drive" in output and output.count('has no drive') == 1
 
 
+def test_joint_commands_positions_track_as_the_ros2_control_topic_interface_sends_them(
+        sim, ros_node, wait_for, tmp_path):
+    """The message sequence of ros2_control's JointStateTopicSystem (its write() each update:
+    every joint named, a position per joint with a position command interface, velocity and
+    effort empty, stamped with the controller manager's clock, published with QoS depth 1;
+    its read() subscribes to joint_states with the sensor-data QoS): the drives take the
+    positions as targets and the joints settle on them (no gravity: no sag)."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+
+    data = yaml.safe_load(SCENES.joinpath('double_pendulum.yaml').read_text())
+    data['gravity'] = [0.0, 0.0, 0.0]
+    for joint in data['joints']:
+        joint['drive'] = {'target': 0.0, 'strength_ratio': 0.1}
+        joint['damping'] = 20.0
+    scene = tmp_path / 'driven.yaml'
+    scene.write_text(yaml.safe_dump(data))
+    child = sim('--scene', scene, '--mode', 'realtime', '--real-time-factor', '4.0')
+    states = []
+    ros_node.create_subscription(JointState, '/joint_states', states.append,
+                                 qos_profile_sensor_data)
+    commands = ros_node.create_publisher(
+        JointState, '/joint_commands', QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
+    assert wait_for(lambda: commands.get_subscription_count() > 0)
+
+    def tracked(targets):
+        message = JointState(name=['shoulder', 'elbow'], position=list(targets))
+        message.header.stamp = ros_node.get_clock().now().to_msg()
+        commands.publish(message)           # each update of the controller manager
+        return bool(states) and all(abs(p - t) < 1e-3
+                                    for p, t in zip(states[-1].position, targets))
+
+    for targets in ((0.4, -0.3), (-0.2, 0.5)):
+        assert wait_for(lambda: tracked(targets), timeout=30.0), states[-1].position
+    assert list(states[-1].effort) == [0.0, 0.0]        # no torque was commanded
+    output = child.stop()
+    assert 'Traceback' not in output and 'dropped' not in output and 'ignored' not in output
+
+
 def test_a_non_physical_torque_is_clamped_and_the_joint_keeps_moving(sim, ros_node, wait_for):
     child = sim('--mode', 'realtime', '--real-time-factor', '2.0')
     states = Inbox(ros_node, 'joint_states')

@@ -42,6 +42,7 @@ class CommandBuffer:
         self.effort_bounds = [math.inf] * len(self.joint_names) if effort_bounds is None \
             else [float(b) for b in effort_bounds]
         self._no_drive_said: set[str] = set()
+        self._velocity_said = False
         self._initially_enabled = [True] * len(self.joint_names) if enabled is None \
             else [bool(e) for e in enabled]
         self.reset([0.0] * len(self.joint_names))
@@ -103,9 +104,15 @@ class CommandBuffer:
 
     def malformed(self, key: str, msg) -> str | None:
         """Why a whole command message on topic ``key`` is unusable (its arrays' lengths do
-        not match), or None. Such a message is dropped whole: it commands and answers nothing."""
-        if key == 'joint_commands' and len(msg.name) != len(msg.effort):
-            return f'{len(msg.name)} names but {len(msg.effort)} efforts: message dropped'
+        not match), or None. Such a message is dropped whole: it commands and answers nothing.
+        A ``joint_commands`` JointState's position, velocity and effort arrays are each empty
+        (not this interface) or as long as its names."""
+        if key == 'joint_commands':
+            for field, what in (('position', 'positions'), ('velocity', 'velocities'),
+                                ('effort', 'efforts')):
+                values = getattr(msg, field)
+                if len(values) and len(values) != len(msg.name):
+                    return f'{len(msg.name)} names but {len(values)} {what}: message dropped'
         if key in ('effort_commands', 'position_commands') \
                 and len(msg.data) != len(self.array_joints):
             what = 'efforts' if key == 'effort_commands' else 'positions'
@@ -113,15 +120,43 @@ class CommandBuffer:
                     f'({", ".join(self.array_joints)}): message dropped')
         return None
 
-    def joint_commands(self, names, efforts) -> list[str]:
-        """Queue a ``joint_commands`` message's torques (``name[i]`` gets ``effort[i]``, the
-        lengths checked by ``malformed``).
+    def joint_commands(self, names, efforts=(), positions=(), velocities=()) -> list[str]:
+        """Queue a ``joint_commands`` message, as ros2_control's topic hardware interface sends
+        it: ``name[i]`` gets ``effort[i]`` (a torque [N·m] or force [N]) and ``position[i]``
+        (its drive's target [rad | m]) where those arrays are not empty (the lengths checked
+        by ``malformed``); a NaN entry leaves that command as it is. Velocity commands are not
+        taken (no velocity drive yet): said once.
 
-        Entries with an unknown name or a non-finite effort are dropped, the rest applied;
-        returns the reasons for the dropped ones.
+        Entries with an unknown name, an infinite value or a position for a joint without a
+        drive are dropped, the rest applied; returns the reasons for the dropped ones.
         """
-        problems = [self.torque(name, effort) for name, effort in zip(names, efforts)]
+        problems = []
+        for i, name in enumerate(names):
+            if name not in self._index:
+                problems.append(f'unknown joint {name!r} (joints: {", ".join(self.joint_names)})')
+                continue
+            if len(efforts) and not math.isnan(efforts[i]):
+                problems.append(self.torque(name, efforts[i]))
+            if len(positions) and not math.isnan(positions[i]):
+                problems.append(self.position(name, positions[i]))
+        if not self._velocity_said and any(not math.isnan(v) for v in velocities):
+            self._velocity_said = True
+            problems.append('velocity commands on joint_commands are not taken (no velocity '
+                            'drive): ignored (said once)')
         return [p for p in problems if p is not None]
+
+    def position(self, joint: str, value: float) -> str | None:
+        """Queue drive target ``value`` [rad | m] for ``joint``; returns why it was dropped
+        (no drive: said once per joint; not finite), or None."""
+        if joint not in self.drive_joints:
+            if joint in self._no_drive_said:
+                return None
+            self._no_drive_said.add(joint)
+            return f'joint {joint!r} has no drive: its position commands are ignored (said once)'
+        if not math.isfinite(value):
+            return f'position {value!r} for joint {joint!r} is not finite: dropped'
+        self._target[joint] = float(value)
+        return None
 
     def effort_array(self, values) -> list[str]:
         """Queue an ``effort_commands`` array: ``values[i]`` [N·m | N] for
@@ -134,18 +169,8 @@ class CommandBuffer:
         """Queue a ``position_commands`` array: drive targets [rad | m] for the joints of
         ``array_joints`` that have a drive (the others are said once); returns the reasons
         for what was dropped (the length checked by ``malformed``)."""
-        problems = []
-        for name, value in zip(self.array_joints, values):
-            if name not in self.drive_joints:
-                if name not in self._no_drive_said:
-                    self._no_drive_said.add(name)
-                    problems.append(f'joint {name!r} has no drive: its position commands are '
-                                    'ignored (said once)')
-            elif not math.isfinite(value):
-                problems.append(f'position {value!r} for joint {name!r} is not finite: dropped')
-            else:
-                self._target[name] = float(value)
-        return problems
+        problems = [self.position(name, value) for name, value in zip(self.array_joints, values)]
+        return [p for p in problems if p is not None]
 
     def take(self, key: str, joint: str | None, msg) -> list[str]:
         """Queue a command message as it arrived on the topic ``key`` of topics.yaml
@@ -157,7 +182,8 @@ class CommandBuffer:
         if problem is not None:
             return [problem]
         if key == 'joint_commands':
-            return self.joint_commands(list(msg.name), list(msg.effort))
+            return self.joint_commands(list(msg.name), list(msg.effort), list(msg.position),
+                                       list(msg.velocity))
         if key == 'effort_commands':
             return self.effort_array(list(msg.data))
         if key == 'position_commands':
