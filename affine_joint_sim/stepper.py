@@ -223,6 +223,11 @@ class Stepper:
         """The joints that have a drive (take a target with ``set_target``)."""
         return [j.name for j in self.scene.joints if j.drive is not None]
 
+    @property
+    def damped_joint_names(self) -> list[str]:
+        """The joints with damping (take a speed with ``set_velocity_target``)."""
+        return [j.name for j in self.scene.joints if j.damping > 0.0]
+
     def set_torque(self, name: str, value) -> None:
         """Set joint ``name``'s external torque τ [N·m] (force [N] for a prismatic joint),
         held until changed.
@@ -320,6 +325,23 @@ class Stepper:
         self._target[:, k] = target
         self._uploads.written()
 
+    def set_velocity_target(self, name: str, value) -> None:
+        """Set the speed [rad/s | m/s] joint ``name``'s damping pulls toward (a velocity
+        drive: a torque c (v − ẋ) inside the implicit step, c its ``damping``; 0 is damping
+        alone), acting from the next step.
+
+        ``value`` is a scalar or an array of shape (num_envs,); NaN/Inf raise ValueError, and
+        so does a joint without damping."""
+        k = self._joint(name)
+        if self.scene.joints[k].damping <= 0.0:
+            raise ValueError(f'joint {name!r} has no damping to drive its speed; joints with '
+                             f'some: {", ".join(self.damped_joint_names) or "none"}')
+        speed = self._per_env(name, value, np.float64)
+        if not np.all(np.isfinite(speed)):
+            raise ValueError(f'joint {name!r}: velocity target must be finite, got {value!r}')
+        self._velocity_target[:, k] = speed
+        self._uploads.written()
+
     def set_drive_enabled(self, name: str, enabled) -> None:
         """Switch joint ``name``'s drive on (True) or off (driving/is_constrained)."""
         k = self._joint(name)
@@ -363,7 +385,8 @@ class Stepper:
             array.assign(np.ascontiguousarray(value))
         # and no lagged contact forces: the first step lags its own (sim.contacts reads them)
         for array in (self._state.history_ready, self._control.joint_target,
-                      self._control.joint_drive_enabled, self._state.joint_velocity,
+                      self._control.joint_drive_enabled, self._control.joint_velocity_target,
+                      self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float,
                       self._scratch.friction_normal, self._scratch.normal_damping):
             array.zero_()
@@ -374,6 +397,7 @@ class Stepper:
                       self._state.joint_position):
             array.assign(x0)
         self._warned = set()
+        self._velocity_target[:] = 0.0     # the host's copy too (uploaded below on a GPU)
         for k, joint in enumerate(self.scene.joints):
             if joint_kind(joint.type).command is not None:
                 self.set_torque(joint.name, joint.torque)
@@ -466,6 +490,11 @@ class Stepper:
     def targets(self) -> np.ndarray:
         """Drive targets [rad | m] (0 for joints without a drive)."""
         return self._out(self._target)
+
+    @property
+    def velocity_targets(self) -> np.ndarray:
+        """Commanded speeds [rad/s | m/s] of the joints' damping (``set_velocity_target``)."""
+        return self._out(self._velocity_target)
 
     @property
     def enabled(self) -> np.ndarray:
@@ -749,9 +778,11 @@ class Stepper:
         self._uploads = Uploads({'joint_torque': control.joint_torque,
                                  'joint_enabled': control.joint_enabled,
                                  'joint_target': control.joint_target,
-                                 'joint_drive_enabled': control.joint_drive_enabled}, separate)
-        self._torque, self._enabled, self._target, self._drive_enabled = (
-            self._uploads.views.values())
+                                 'joint_drive_enabled': control.joint_drive_enabled,
+                                 'joint_velocity_target': control.joint_velocity_target},
+                                separate)
+        (self._torque, self._enabled, self._target, self._drive_enabled,
+         self._velocity_target) = self._uploads.views.values()
         self._terms, self._terms_at = [], -1
         self._with_torque = [*self._host.active_terms, 'torque']
         # where a non-zero torque is a term of the step: enabled joints on a free body (kept

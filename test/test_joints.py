@@ -213,6 +213,42 @@ def test_damping_never_injects_energy():
     assert energies[-1] < energies[0] - 0.1
 
 
+@pytest.mark.parametrize('integrator', ['bdf1', 'bdf2'])
+def test_a_velocity_target_spins_the_joint_up_at_c_over_i_to_that_speed(integrator):
+    """The damping pulls the speed toward the commanded v: I ω' = c (v − ω) without gravity,
+    which the integrators step as ω_{n+1} = (ω_n + a v) / (1 + a) (BDF1, a = c dt / I) and
+    ω_{n+1} = (4 ω_n − ω_{n−1} + 2 a v) / (3 + 2 a) (BDF2, after a first BDF1 step, its
+    history starting there: ω_{n−1} = ω_n in the first BDF2 step). A body
+    spinning under BDF1 also loses speed to BDF1's own damping, which ends it below v (0.4 %
+    at ω dt = 0.015 here). Back to v = 0 it brakes; a joint without damping refuses a speed."""
+    c, v, dt = 2.0, 1.5, 0.01
+    scene = pendulum(gravity=(0, 0, 0), damping=c)
+    scene = scene.model_copy(update={'solver': scene.solver.model_copy(
+        update={'integrator': integrator})})
+    sim = Stepper(scene)
+    sim.set_velocity_target('hinge', v)
+    speeds = np.array([run(sim, 1).velocities[0] for _ in range(300)])
+    a = c * dt / LINK_I
+    expected = [v * a / (1.0 + a)] * 2
+    for _ in range(299):
+        expected.append((expected[-1] + a * v) / (1.0 + a) if integrator == 'bdf1' else
+                        (4.0 * expected[-1] - expected[-2] + 2.0 * a * v) / (3.0 + 2.0 * a))
+    expected = np.array(expected[1:])     # from the first step's ω
+    if integrator == 'bdf1':
+        assert np.abs(speeds[:20] - expected[:20]).max() < 1e-3 * v
+        assert speeds[-1] == pytest.approx(v, rel=5e-3)
+    else:
+        assert np.abs(speeds - expected).max() < 1e-4 * v
+        assert speeds[-1] == pytest.approx(v, rel=1e-5)
+    assert sim.velocity_targets[0] == v
+    sim.set_velocity_target('hinge', 0.0)
+    assert abs(run(sim, 300).velocities[0]) < 1e-3 * v
+    sim.reset()
+    assert sim.velocity_targets[0] == 0.0
+    with pytest.raises(ValueError, match="joint 'hinge' has no damping"):
+        Stepper(pendulum(gravity=(0, 0, 0))).set_velocity_target('hinge', v)
+
+
 def test_drive_settles_where_its_spring_balances_gravity_and_retargets_next_step():
     strength_ratio, dt = 0.005, 0.01
     sim = Stepper(pendulum(drive={'target': 0.5, 'strength_ratio': strength_ratio},

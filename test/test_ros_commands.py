@@ -11,10 +11,13 @@ class FakeStepper:
     """Records what the buffer writes (the Stepper's set_torque/set_enabled signatures)."""
 
     def __init__(self):
-        self.torque, self.enabled, self.target = {}, {}, {}
+        self.torque, self.enabled, self.target, self.speed = {}, {}, {}, {}
 
     def set_target(self, name, value):
         self.target[name] = value
+
+    def set_velocity_target(self, name, value):
+        self.speed[name] = value
 
     def set_torque(self, name, value):
         self.torque[name] = value
@@ -75,11 +78,20 @@ def test_joint_commands_carry_positions_and_efforts_as_the_topic_hardware_interf
     assert buffer.malformed('joint_commands', Msg(name=['a', 'b'], position=[0.1], velocity=[],
                                                   effort=[])) == (
         '2 names but 1 positions: message dropped')
-    speeds = Msg(name=['a'], position=[], velocity=[0.5], effort=[])
-    assert buffer.take('joint_commands', None, speeds) == [
-        'velocity commands on joint_commands are not taken (no velocity drive): ignored '
-        '(said once)']
-    assert buffer.take('joint_commands', None, speeds) == []
+
+
+
+def test_joint_commands_velocities_go_to_the_joints_with_damping():
+    buffer = CommandBuffer(['a', 'b'], damped_joints=['b'])
+    sim = FakeStepper()
+    speeds = Msg(name=['a', 'b'], position=[], velocity=[0.5, -1.0], effort=[])
+    said = ["joint 'a' has no damping: its velocity commands are ignored (said once; its "
+            "damping is the velocity drive's gain)"]
+    assert buffer.take('joint_commands', None, speeds) == said
+    assert buffer.take('joint_commands', None, speeds) == []          # said once
+    assert 'not finite' in buffer.velocity('b', math.inf)
+    buffer.apply(sim, 0.0)
+    assert sim.speed == {'b': -1.0}
 
 
 def test_timeout_drops_a_held_torque_once_and_a_new_command_rearms_it():

@@ -23,6 +23,7 @@ class CommandBuffer:
         array_joints: the joints of ``effort_commands``/``position_commands`` arrays, in
             order (ros2_control's ``joints`` of a group controller); default ``joint_names``.
         drive_joints: the joints that have a drive (take a position command).
+        damped_joints: the joints with damping (take a velocity command).
         effort_bounds: per joint of ``joint_names``, the largest |torque| [N·m] or |force| [N]
             a step can represent (Stepper.step_effort_bounds); larger commands are clamped to
             it, with a notice.
@@ -33,16 +34,17 @@ class CommandBuffer:
 
     def __init__(self, joint_names: list[str], command_timeout: float = 0.0,
                  array_joints: list[str] | None = None, drive_joints=(), effort_bounds=None,
-                 enabled=None):
+                 enabled=None, damped_joints=()):
         self.joint_names = list(joint_names)
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.command_timeout = command_timeout
         self.array_joints = list(array_joints or joint_names)
         self.drive_joints = set(drive_joints)
+        self.damped_joints = set(damped_joints)
         self.effort_bounds = [math.inf] * len(self.joint_names) if effort_bounds is None \
             else [float(b) for b in effort_bounds]
         self._no_drive_said: set[str] = set()
-        self._velocity_said = False
+        self._no_damping_said: set[str] = set()
         self._initially_enabled = [True] * len(self.joint_names) if enabled is None \
             else [bool(e) for e in enabled]
         self.reset([0.0] * len(self.joint_names))
@@ -59,7 +61,8 @@ class CommandBuffer:
         return cls(sim.command_joint_names, command_timeout, array_joints=array_joints,
                    drive_joints=sim.drive_joint_names,
                    effort_bounds=np.where(limits <= bounds, np.inf, bounds),
-                   enabled=[sim.scene.joints[k].enabled for k in index])
+                   enabled=[sim.scene.joints[k].enabled for k in index],
+                   damped_joints=sim.damped_joint_names)
 
     def reset(self, torques, sim_time: float = 0.0) -> None:
         """Forget pending commands; ``torques`` [N·m] (the scene's) count as commanded at
@@ -67,6 +70,7 @@ class CommandBuffer:
         self._torque: dict[int, float] = {}
         self._enabled: dict[int, bool] = {}
         self._target: dict[str, float] = {}
+        self._speed: dict[str, float] = {}
         self._last_command = [sim_time] * len(self.joint_names)
         self._held = [float(t) != 0.0 for t in torques]     # a non-zero torque that can time out
         self._on = list(self._initially_enabled)             # each joint's torque switch, as set
@@ -122,13 +126,14 @@ class CommandBuffer:
 
     def joint_commands(self, names, efforts=(), positions=(), velocities=()) -> list[str]:
         """Queue a ``joint_commands`` message, as ros2_control's topic hardware interface sends
-        it: ``name[i]`` gets ``effort[i]`` (a torque [N·m] or force [N]) and ``position[i]``
-        (its drive's target [rad | m]) where those arrays are not empty (the lengths checked
-        by ``malformed``); a NaN entry leaves that command as it is. Velocity commands are not
-        taken (no velocity drive yet): said once.
+        it: ``name[i]`` gets ``effort[i]`` (a torque [N·m] or force [N]), ``position[i]``
+        (its drive's target [rad | m]) and ``velocity[i]`` (the speed [rad/s | m/s] its
+        damping pulls toward) where those arrays are not empty (the lengths checked by
+        ``malformed``); a NaN entry leaves that command as it is.
 
-        Entries with an unknown name, an infinite value or a position for a joint without a
-        drive are dropped, the rest applied; returns the reasons for the dropped ones.
+        Entries with an unknown name, an infinite value, a position for a joint without a
+        drive or a velocity for one without damping are dropped, the rest applied; returns
+        the reasons for the dropped ones.
         """
         problems = []
         for i, name in enumerate(names):
@@ -139,11 +144,23 @@ class CommandBuffer:
                 problems.append(self.torque(name, efforts[i]))
             if len(positions) and not math.isnan(positions[i]):
                 problems.append(self.position(name, positions[i]))
-        if not self._velocity_said and any(not math.isnan(v) for v in velocities):
-            self._velocity_said = True
-            problems.append('velocity commands on joint_commands are not taken (no velocity '
-                            'drive): ignored (said once)')
+            if len(velocities) and not math.isnan(velocities[i]):
+                problems.append(self.velocity(name, velocities[i]))
         return [p for p in problems if p is not None]
+
+    def velocity(self, joint: str, value: float) -> str | None:
+        """Queue the speed ``value`` [rad/s | m/s] ``joint``'s damping pulls toward; returns
+        why it was dropped (no damping: said once per joint; not finite), or None."""
+        if joint not in self.damped_joints:
+            if joint in self._no_damping_said:
+                return None
+            self._no_damping_said.add(joint)
+            return (f'joint {joint!r} has no damping: its velocity commands are ignored (said '
+                    'once; its damping is the velocity drive\'s gain)')
+        if not math.isfinite(value):
+            return f'velocity {value!r} for joint {joint!r} is not finite: dropped'
+        self._speed[joint] = float(value)
+        return None
 
     def position(self, joint: str, value: float) -> str | None:
         """Queue drive target ``value`` [rad | m] for ``joint``; returns why it was dropped
@@ -213,9 +230,12 @@ class CommandBuffer:
                 self._disabled_said.discard(k)
         for name, target in self._target.items():
             stepper.set_target(name, target)
+        for name, speed in self._speed.items():
+            stepper.set_velocity_target(name, speed)
         self._torque.clear()
         self._enabled.clear()
         self._target.clear()
+        self._speed.clear()
         if self.command_timeout <= 0.0:
             return []
         notices = []

@@ -214,6 +214,8 @@ FIELDS = _fields('model', [
     ('joint_enabled', 'int32', EJ, '-', 'external_torque/is_constrained'),
     ('joint_target', 'scalar', EJ, 'rad | m', 'drive target'),
     ('joint_drive_enabled', 'int32', EJ, '-', 'driving/is_constrained'),
+    ('joint_velocity_target', 'scalar', EJ, 'rad/s | m/s', 'the speed a joint\'s damping pulls '
+     'toward (a velocity drive; 0: damping alone)'),
 ]) + _fields('scratch', [
     ('scratch_address', 'uint64', (), '-', 'the device address of a one-element array '
      'holding this Scratch (as model_address)'),

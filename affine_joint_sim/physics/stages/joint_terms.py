@@ -12,7 +12,9 @@ committed coordinate plus the in-step increment, so limits and targets work acro
 - drive (UID 19 and its prismatic analogue): K/2 (x − target)² while enabled;
 - damping c (viscous, ours): the dissipation potential c/(2 dt)·(x − x_n)² of implicit Euler,
   which is c·dt/2·(x − x_n)² in this dt²-scaled potential; under BDF2 its velocity estimate
-  (3x − 4x_n + x_{n−1})/(2dt) gives 3/2·c·dt/2·(x − (4x_n − x_{n−1})/3)².
+  (3x − 4x_n + x_{n−1})/(2dt) gives 3/2·c·dt/2·(x − (4x_n − x_{n−1})/3)². With a commanded
+  speed v (a velocity drive, ``control.joint_velocity_target``) it pulls the velocity estimate
+  toward v instead of 0: x − x_n − v dt, and x − (4x_n − x_{n−1})/3 − 2/3 v dt under BDF2.
 Like the joint energy, limit and drive carry no dt²: their physical stiffness is ∝ 1/dt².
 """
 
@@ -32,6 +34,7 @@ def build(t) -> SimpleNamespace:
     two = t.two
     halving_low, halving_high = scalar(0.4), scalar(0.6)
     bdf2_x_n, bdf2_x_prev, bdf2_gain = scalar(4.0 / 3.0), scalar(1.0 / 3.0), scalar(1.5)
+    bdf2_ahead = scalar(2.0 / 3.0)
     Model, State, Control = t.structs.Model, t.structs.State, t.structs.Control
     joint_coordinate_step = t.joint_coordinate_step
 
@@ -104,7 +107,8 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def coordinate_terms(model: Model, state: State, control: Control, env: int, k: int,
                          x: scalar, bdf2: int):
-        """(φ, φ', φ'') of joint k's limit + drive + damping at coordinate x."""
+        """(φ, φ', φ'') of joint k's limit + drive + damping (toward its commanded speed) at
+        coordinate x."""
         e = zero
         d1 = zero
         d2 = zero
@@ -120,9 +124,14 @@ def build(t) -> SimpleNamespace:
         if damping > zero:
             x_hat = state.joint_coordinate[env, k]
             gain = damping * model.dt
+            ahead = model.dt        # how far x moves in the step at the commanded speed, 1 m/s
             if bdf2 != 0:
                 x_hat = bdf2_x_n * x_hat - bdf2_x_prev * state.joint_coordinate_prev[env, k]
                 gain = bdf2_gain * gain
+                ahead = bdf2_ahead * ahead
+            speed = control.joint_velocity_target[env, k]
+            if speed != zero:
+                x_hat += ahead * speed
             diff = x - x_hat
             e += half * gain * diff * diff
             d1 += gain * diff
