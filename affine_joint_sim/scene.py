@@ -235,6 +235,7 @@ class Joint(StrictModel):
                             BeforeValidator(not_a_boolean)] = math.inf
     limit: Limit | None = None
     damping: Annotated[Number, Field(ge=0.0)] = 0.0
+    friction: Annotated[Number, Field(ge=0.0)] = 0.0     # Coulomb friction [N·m | N]
     drive: Drive | None = None
     initial_position: Number = 0.0
 
@@ -269,7 +270,7 @@ class Joint(StrictModel):
 
 
 _MOVABLE_KEYS = {'x0', 'x1', 'torque', 'enabled', 'torque_model', 'angle_mode', 'effort_limit',
-                 'limit', 'damping', 'drive', 'initial_position'}
+                 'limit', 'damping', 'friction', 'drive', 'initial_position'}
 
 
 NEWTON_MAX_ITER = 32             # Newton iterations per step at most, by default

@@ -21,9 +21,9 @@ class SimulationWarning(UserWarning):
     """A scene or a step the simulator can run but whose result the user should know about.
 
     One item of a load that ``summarised`` sums up carries ``kind``, what the summary counts it
-    as (``"joints whose <dynamics friction> is not modelled"``), and optionally ``size``, how
-    bad it is (larger is worse, in the unit of its kind) with ``worst``, how the summary names
-    the worst one (``"'knee' 1 N·m"``), and ``item``, what it is about: warnings of one kind
+    as (``"collision meshes simplified for contact"``), and optionally ``size``, how bad it is
+    (larger is worse, in the unit of its kind) with ``worst``, how the summary names the worst
+    one (``"forearm.stl within 0.99 mm"``), and ``item``, what it is about: warnings of one kind
     about the same item count once (two reductions of one mesh). Without a kind it is a
     warning of its own.
     """

@@ -249,6 +249,39 @@ def test_a_velocity_target_spins_the_joint_up_at_c_over_i_to_that_speed(integrat
         Stepper(pendulum(gravity=(0, 0, 0))).set_velocity_target('hinge', v)
 
 
+@pytest.mark.parametrize('integrator', ['bdf1', 'bdf2'])
+def test_joint_friction_holds_below_its_torque_and_slides_at_the_excess_above(integrator):
+    """Coulomb friction f on the hinge (no gravity): under τ < f the joint creeps at the speed
+    where the smoothed friction's viscous part balances τ, v = ε_v (1 − √(1 − τ/f)) (f0' of
+    IPC's f0 at the step's slip, ε_v = SLIP_SPEED); under τ > f it accelerates at (τ − f)/I;
+    left alone it decelerates at f/I and stops. (BDF1's own damping of a spinning body takes
+    0.3 % off the acceleration at ω dt ≈ 0.015.)"""
+    from affine_joint_sim.physics.stages.joint_terms import SLIP_SPEED
+
+    f = 1.0
+    scene = pendulum(gravity=(0, 0, 0), friction=f)
+    scene = scene.model_copy(update={'solver': scene.solver.model_copy(
+        update={'integrator': integrator})})
+    sim = Stepper(scene)
+    sim.set_torque('hinge', 0.5 * f)
+    run(sim, 200)
+    creep = SLIP_SPEED * (1.0 - math.sqrt(0.5))
+    assert sim.velocities[0] == pytest.approx(creep, rel=1e-3)
+    sim.set_torque('hinge', 2.0 * f)
+    start = sim.velocities[0]
+    speeds = np.array([run(sim, 1).velocities[0] for _ in range(50)])
+    slope = np.polyfit(np.arange(10, 50) * 0.01, speeds[10:], 1)[0]
+    tolerance = 5e-3 if integrator == 'bdf1' else 1e-3
+    assert slope == pytest.approx((2.0 * f - f) / LINK_I, rel=tolerance) and speeds[0] > start
+    sim.set_torque('hinge', 0.0)
+    top = sim.velocities[0]
+    speeds = np.array([run(sim, 1).velocities[0] for _ in range(60)])
+    slope = np.polyfit(np.arange(5, 20) * 0.01, speeds[5:20], 1)[0]
+    assert slope == pytest.approx(-f / LINK_I, rel=tolerance) and top > 0.5
+    assert abs(speeds[-1]) < SLIP_SPEED and np.all(speeds > -SLIP_SPEED)
+    assert 'friction' in sim.stats['active_terms']
+
+
 def test_drive_settles_where_its_spring_balances_gravity_and_retargets_next_step():
     strength_ratio, dt = 0.005, 0.01
     sim = Stepper(pendulum(drive={'target': 0.5, 'strength_ratio': strength_ratio},

@@ -548,16 +548,21 @@ def test_an_unreadable_file_is_an_error(tmp_path):
         Scene.from_urdf(tmp_path / 'missing.urdf')
 
 
-@pytest.mark.parametrize('extra, words', [
-    ('<mimic joint="hinge"/>', "mimics 'hinge': mimic is not modelled"),
-    ('<dynamics damping="0.1" friction="0.5"/>', 'friction="0.5"> is not modelled'),
-])
-def test_unmodelled_joint_features_are_warnings(tmp_path, extra, words):
+def test_unmodelled_joint_features_are_warnings(tmp_path):
     scene, said = warnings_of(tmp_path, robot(
         '<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm') + ARM
-        + joint('twin', 'continuous', 'arm', 'arm2', extra=extra) + '<link name="arm2">'
-        + inertial() + '</link>'))
-    assert any("joint 'twin'" in m and words in m for m in said), said
+        + joint('twin', 'continuous', 'arm', 'arm2', extra='<mimic joint="hinge"/>')
+        + '<link name="arm2">' + inertial() + '</link>'))
+    assert any("joint 'twin'" in m and "mimics 'hinge': mimic is not modelled" in m
+               for m in said), said
+
+
+def test_dynamics_damping_and_friction_become_the_joint_terms(tmp_path):
+    scene, said = warnings_of(tmp_path, robot(
+        '<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm',
+                                      extra='<dynamics damping="0.1" friction="0.5"/>') + ARM))
+    assert (scene.joints[0].damping, scene.joints[0].friction) == (0.1, 0.5)
+    assert not [m for m in said if 'friction' in m], said
 
 
 def test_geometry_the_simulator_does_not_use_cannot_stop_a_robot(tmp_path):

@@ -9,10 +9,10 @@ What becomes what:
   is fixed to the world at the root link's frame (``fixed_base: true``) or free.
 - ``revolute`` → UID 18 with its ``<limit lower upper>`` as a limit (UID 670) and
   ``<limit effort>`` as effort_limit; ``continuous`` → UID 18 without limit; ``prismatic`` →
-  UID 20 with its limit (UID 669); ``<dynamics damping>`` → damping. Angles are multi-turn
-  (``angle_mode: continuous``), torques pure couples (``torque_model: generalized``).
-  ``floating`` → the child is a free body; ``planar`` → error; ``mimic`` and friction are not
-  modelled (a warning each).
+  UID 20 with its limit (UID 669); ``<dynamics damping>`` → damping, ``<dynamics friction>``
+  → friction (Coulomb). Angles are multi-turn (``angle_mode: continuous``), torques pure
+  couples (``torque_model: generalized``). ``floating`` → the child is a free body;
+  ``planar`` → error; ``mimic`` is not modelled (a warning).
 - Visuals (``urdf.visuals``) keep their pose on the body, geometry, colour and mesh URIs.
 - With ``contact`` or ``ground`` given, each link's ``<collision>`` elements become its body's
   collision geometry at their pose in the body frame (meshes found as visuals are; one that
@@ -349,9 +349,10 @@ class _Converter:
                 _warn(f'{self.path}: joint {joint.name!r}: <limit effort="{limit.effort:g}"> '
                       'read as no effort limit (an effort limit of 0 would leave the joint '
                       'unactuated)', 'joints with <limit effort="0"> (no effort limit)')
-        damping = self._dynamics(joint, 'damping')
-        if damping:
-            out['damping'] = damping
+        for key in ('damping', 'friction'):
+            value = self._dynamics(joint, key)
+            if value:
+                out[key] = value
         return out
 
     def _dynamics(self, joint, key: str) -> float:
@@ -403,12 +404,6 @@ class _Converter:
             _warn(f'{self.path}: joint {joint.name!r} mimics {joint.mimic.joint!r}{missing}: '
                   'mimic is not modelled, the joint moves on its own (command it like the '
                   'other)', 'mimic joints not modelled (they move on their own)')
-        friction = self._dynamics(joint, 'friction')
-        if friction:
-            _warn(f'{self.path}: joint {joint.name!r}: <dynamics friction="{friction:g}"> is '
-                  'not modelled (no Coulomb friction); its damping is',
-                  'joints whose <dynamics friction> is not modelled', friction,
-                  f'{joint.name!r} {friction:g} {"N" if joint.type == "prismatic" else "N·m"}')
 
     # ---- the scene -----------------------------------------------------------------------
 

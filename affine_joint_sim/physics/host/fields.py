@@ -115,6 +115,7 @@ FIELDS = _fields('model', [
     ('joint_limit_upper', 'scalar', J, 'rad | m', 'limit u on the coordinate'),
     ('joint_limit_strength', 'scalar', J, 'J·s²', 'limit s (0: no limit)'),
     ('joint_damping', 'scalar', J, 'N·m·s/rad | N·s/m', 'viscous damping c'),
+    ('joint_friction', 'scalar', J, 'N·m | N', 'Coulomb friction f'),
     ('joint_initial_position', 'scalar', J, 'rad | m', 'coordinate x₀ at t = 0 (its origin is '
      'the URDF\'s)'),
     ('joint_drive_stiffness', 'scalar', J, 'kg', 'drive K = strength_ratio (m_P + m_C), 0: none'),

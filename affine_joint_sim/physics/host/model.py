@@ -136,7 +136,8 @@ def build_model(scene) -> HostModel:
         ('joints', bool(moving.any())),
         ('limits', bool((moving & (joints['joint_limit_strength'] > 0)).any())),
         ('drives', bool((moving & (joints['joint_drive_stiffness'] > 0)).any())),
-        ('damping', bool((moving & (joints['joint_damping'] > 0)).any()))) if on]
+        ('damping', bool((moving & (joints['joint_damping'] > 0)).any())),
+        ('friction', bool((moving & (joints['joint_friction'] > 0)).any()))) if on]
     nonlinear = np.array([not JOINT_KINDS[code].linear for code in joints['joint_type']],
                          dtype=bool)
     state_coupling = bool((state_terms | (moving & nonlinear)).any())
@@ -201,12 +202,14 @@ def _joint_arrays(scene, rotations, q0, mass) -> dict:
     out['joint_limit_upper'] = np.array([lim.upper if lim else 0.0 for lim in limits])
     out['joint_limit_strength'] = np.array([lim.strength if lim else 0.0 for lim in limits])
     out['joint_damping'] = np.array([j.damping for j in scene.joints])
+    out['joint_friction'] = np.array([j.friction for j in scene.joints])
     out['joint_initial_position'] = np.array([j.initial_position for j in scene.joints])
     out['joint_drive_stiffness'] = np.array(
         [j.drive.strength_ratio * (mass[parent[k]] + mass[child[k]]) if j.drive else 0.0
          for k, j in enumerate(scene.joints)])
     out['joint_state_terms'] = np.array(
-        [j.limit is not None or j.drive is not None or j.damping > 0.0 for j in scene.joints],
+        [j.limit is not None or j.drive is not None or j.damping > 0.0 or j.friction > 0.0
+         for j in scene.joints],
         dtype=np.int32)
     return out
 

@@ -1,4 +1,4 @@
-"""Terms on a joint's coordinate x(q) shared by joint types: limit, drive, damping.
+"""Terms on a joint's coordinate x(q) shared by joint types: limit, drive, damping, friction.
 
 Each is a scalar function φ(x) inside the incremental potential (docs/physics.md#joint-terms),
 entering Newton through φ'(x) ∇x and the Gauss–Newton Hessian φ''(x) ∇x ∇xᵀ (φ'' ≥ 0, so PSD;
@@ -14,7 +14,11 @@ committed coordinate plus the in-step increment, so limits and targets work acro
   which is c·dt/2·(x − x_n)² in this dt²-scaled potential; under BDF2 its velocity estimate
   (3x − 4x_n + x_{n−1})/(2dt) gives 3/2·c·dt/2·(x − (4x_n − x_{n−1})/3)². With a commanded
   speed v (a velocity drive, ``control.joint_velocity_target``) it pulls the velocity estimate
-  toward v instead of 0: x − x_n − v dt, and x − (4x_n − x_{n−1})/3 − 2/3 v dt under BDF2.
+  toward v instead of 0: x − x_n − v dt, and x − (4x_n − x_{n−1})/3 − 2/3 v dt under BDF2;
+- friction f (Coulomb, ours): IPC's smoothed friction on the slip s = x − x̂ of the same
+  velocity estimate, dt² f f0(|s|), f0(y) = y beyond ε = SLIP_SPEED·(dt, or 2/3 dt under BDF2)
+  and y²/ε − y³/(3ε²) + ε/3 below (C¹): a torque f against the motion beyond the slip speed,
+  a stiff viscous law below it.
 Like the joint energy, limit and drive carry no dt²: their physical stiffness is ∝ 1/dt².
 """
 
@@ -22,7 +26,9 @@ from types import SimpleNamespace
 
 import warp as wp
 
-__all__ = ['build']
+__all__ = ['SLIP_SPEED', 'build']
+
+SLIP_SPEED = 1e-3   # rad/s | m/s: below it a joint's friction is viscous (IPC's ε_v)
 
 
 def build(t) -> SimpleNamespace:
@@ -35,6 +41,7 @@ def build(t) -> SimpleNamespace:
     halving_low, halving_high = scalar(0.4), scalar(0.6)
     bdf2_x_n, bdf2_x_prev, bdf2_gain = scalar(4.0 / 3.0), scalar(1.0 / 3.0), scalar(1.5)
     bdf2_ahead = scalar(2.0 / 3.0)
+    slip_speed = scalar(SLIP_SPEED)
     Model, State, Control = t.structs.Model, t.structs.State, t.structs.Control
     joint_coordinate_step = t.joint_coordinate_step
 
@@ -105,10 +112,26 @@ def build(t) -> SimpleNamespace:
         return depth, change
 
     @wp.func
+    def friction_term(weight: scalar, slip: scalar, eps: scalar):
+        """(φ, φ', φ'') of weight·f0(|slip|), IPC's smoothed friction with threshold eps [m |
+        rad]: f0(y) = y beyond eps, y²/eps − y³/(3 eps²) + eps/3 below."""
+        y = wp.abs(slip)
+        e = weight * y
+        d1 = weight
+        d2 = zero
+        if y < eps:
+            e = weight * (y * y / eps - y * y * y / (three * eps * eps) + eps / three)
+            d1 = weight * (two * y / eps - y * y / (eps * eps))
+            d2 = weight * (two / eps - two * y / (eps * eps))
+        if slip < zero:
+            d1 = -d1
+        return e, d1, d2
+
+    @wp.func
     def coordinate_terms(model: Model, state: State, control: Control, env: int, k: int,
                          x: scalar, bdf2: int):
-        """(φ, φ', φ'') of joint k's limit + drive + damping (toward its commanded speed) at
-        coordinate x."""
+        """(φ, φ', φ'') of joint k's limit + drive + friction + damping (toward its commanded
+        speed) at coordinate x."""
         e = zero
         d1 = zero
         d2 = zero
@@ -121,21 +144,30 @@ def build(t) -> SimpleNamespace:
             d1 += stiffness * diff
             d2 += stiffness
         damping = model.joint_damping[k]
-        if damping > zero:
+        friction = model.joint_friction[k]
+        if damping > zero or friction > zero:
+            # x̂: where x would be at rest; ahead: how far x moves in the step at 1 rad/s | m/s
             x_hat = state.joint_coordinate[env, k]
             gain = damping * model.dt
-            ahead = model.dt        # how far x moves in the step at the commanded speed, 1 m/s
+            ahead = model.dt
             if bdf2 != 0:
                 x_hat = bdf2_x_n * x_hat - bdf2_x_prev * state.joint_coordinate_prev[env, k]
                 gain = bdf2_gain * gain
                 ahead = bdf2_ahead * ahead
-            speed = control.joint_velocity_target[env, k]
-            if speed != zero:
-                x_hat += ahead * speed
-            diff = x - x_hat
-            e += half * gain * diff * diff
-            d1 += gain * diff
-            d2 += gain
+            if friction > zero:
+                fe, fd1, fd2 = friction_term(friction * model.dt * model.dt, x - x_hat,
+                                             slip_speed * ahead)
+                e += fe
+                d1 += fd1
+                d2 += fd2
+            if damping > zero:
+                speed = control.joint_velocity_target[env, k]
+                if speed != zero:
+                    x_hat += ahead * speed
+                diff = x - x_hat
+                e += half * gain * diff * diff
+                d1 += gain * diff
+                d2 += gain
         return e, d1, d2
 
     return SimpleNamespace(joint_coordinate=joint_coordinate, coordinate_terms=coordinate_terms,
