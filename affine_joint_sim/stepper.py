@@ -315,15 +315,8 @@ class Stepper:
 
         ``value`` is a scalar or an array of shape (num_envs,); NaN/Inf raise ValueError, and
         so does a joint without a ``drive``."""
-        k = self._joint(name)
-        if self.scene.joints[k].drive is None:
-            raise ValueError(f'joint {name!r} has no drive; joints with one: '
-                             f'{", ".join(self.drive_joint_names) or "none"}')
-        target = self._per_env(name, value, np.float64)
-        if not np.all(np.isfinite(target)):
-            raise ValueError(f'joint {name!r}: target must be finite, got {value!r}')
-        self._target[:, k] = target
-        self._uploads.written()
+        self._set_joint_input(name, value, self._target, 'a drive', self.drive_joint_names,
+                              'target')
 
     def set_velocity_target(self, name: str, value) -> None:
         """Set the speed [rad/s | m/s] joint ``name``'s damping pulls toward (a velocity
@@ -332,14 +325,21 @@ class Stepper:
 
         ``value`` is a scalar or an array of shape (num_envs,); NaN/Inf raise ValueError, and
         so does a joint without damping."""
+        self._set_joint_input(name, value, self._velocity_target, 'damping',
+                              self.damped_joint_names, 'velocity target')
+
+    def _set_joint_input(self, name: str, value, inputs: np.ndarray, needs: str,
+                         able: list[str], what: str) -> None:
+        """``inputs[:, joint]`` = ``value`` (a scalar or (num_envs,)) for joint ``name``, one of
+        ``able`` (those with ``needs``), finite; else ValueError saying which."""
         k = self._joint(name)
-        if self.scene.joints[k].damping <= 0.0:
-            raise ValueError(f'joint {name!r} has no damping to drive its speed; joints with '
-                             f'some: {", ".join(self.damped_joint_names) or "none"}')
-        speed = self._per_env(name, value, np.float64)
-        if not np.all(np.isfinite(speed)):
-            raise ValueError(f'joint {name!r}: velocity target must be finite, got {value!r}')
-        self._velocity_target[:, k] = speed
+        if self.scene.joints[k].name not in able:
+            raise ValueError(f'joint {name!r} has no {needs.split()[-1]}; joints with '
+                             f'{needs}: {", ".join(able) or "none"}')
+        values = self._per_env(name, value, np.float64)
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f'joint {name!r}: {what} must be finite, got {value!r}')
+        inputs[:, k] = values
         self._uploads.written()
 
     def set_drive_enabled(self, name: str, enabled) -> None:

@@ -364,5 +364,5 @@ def test_commands_to_the_wrong_joint_are_refused():
         sim.set_torque('weld', 1.0)
     with pytest.raises(ValueError, match='finite'):
         sim.set_target('hinge', float('nan'))
-    with pytest.raises(ValueError, match='has no drive; joints with one: hinge, slide'):
+    with pytest.raises(ValueError, match='has no drive; joints with a drive: hinge, slide'):
         sim.set_target('weld', 0.0)
