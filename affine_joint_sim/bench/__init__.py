@@ -15,7 +15,7 @@ from pathlib import Path
 __all__ = ['SECTIONS', 'add_arguments', 'main']
 
 SECTIONS = ('perf', 'scaling', 'batch', 'sweep', 'ros_loop', 'record', 'robots', 'contact',
-            'impacts', 'bodies', 'reads')
+            'impacts', 'bodies', 'stages', 'reads')
 
 
 def _section(name: str):

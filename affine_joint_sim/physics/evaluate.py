@@ -14,9 +14,16 @@ from affine_joint_sim.physics.host.fields import (allocate, array_sizes, device_
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
 from affine_joint_sim.physics.host.model import build_model
 
-__all__ = ['Stages']
+__all__ = ['STAGE_NAMES', 'Stages', 'stage_timer']
 
 _PROBES = {}
+_TIMERS = {}
+
+# The stages ``stage_timer`` runs, in its ``which`` order: the incremental potential, the
+# assembly with and without the Hessian, the solve with and without factoring, and with
+# contact the step bound, the near list's gathering and the smallest distance
+STAGE_NAMES = ('energy', 'assembly', 'gradient', 'factor and solve', 'factored solve',
+               'step bound', 'near list', 'distances')
 
 
 ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START, MOVED, STEP_BOUND = range(6)
@@ -77,6 +84,54 @@ def _probe_kernel(t):
 
     _PROBES[key] = probe
     return probe
+
+
+def stage_timer(t):
+    """A kernel that runs stage ``which`` (an index of STAGE_NAMES) ``reps`` times on every
+    environment at the state it is given (state.q; the step bound along scratch.dq from
+    scratch.q_start), for the step kernel's namespace ``t``: the launch's time over ``reps``
+    is one call's. It overwrites the scratch a step rebuilds (the system, factors, near
+    list); the contact stages are left out without contact. Built once per namespace."""
+    key = (t.name, t.bodies, t.contact, t.shapes)
+    if key in _TIMERS:
+        return _TIMERS[key]
+    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
+                                      t.structs.Scratch)
+    scalar, one = t.scalar, t.one
+    incremental_potential, assemble, solve = t.incremental_potential, t.assemble, t.solve
+    solve_factored = t.solve_factored
+    contact, salt = t.contact, t.source_salt
+    step_bound, gather_near, touching = t.step_bound, t.gather_near, t.touching
+
+    @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
+    def repeat(model: Model, state: State, control: Control, scratch: Scratch, which: int,
+               reps: int, out: wp.array(dtype=scalar)):
+        wp.static(salt)     # its sources' digest, in the module hash (kernel_math)
+        env = wp.tid()
+        total = scalar(0.0)
+        for r in range(reps):
+            if which == 0:
+                total += incremental_potential(model, state, control, state.q, scratch, env,
+                                               one, 1)
+            elif which == 1 or which == 2:
+                total += scalar(assemble(model, state, control, state.q, scratch, env, one, 1,
+                                         2 - which))
+            elif which == 3:
+                used, stalled = solve(model, scratch, env)
+            elif which == 4:
+                solve_factored(model, scratch, env)
+            elif wp.static(contact):
+                if which == 5:
+                    total += step_bound(model, scratch, env)
+                elif which == 6:
+                    scratch.near_count[env] = gather_near(model, scratch, env, 0)
+                else:
+                    nearest, active = touching(model, state.q, scratch, env, 0)
+                    total += nearest
+        out[env] = total
+
+    _TIMERS[key] = repeat
+    return repeat
 
 
 class Stages:

@@ -1,0 +1,27 @@
+"""``bench stages``: the quick run through the command line writes a row per scene with every
+stage timed, the contact stages only where the scene has contact. No assertion on wall-clock
+figures beyond their being measured (finite, positive)."""
+
+import csv
+import math
+
+from affine_joint_sim.bench import stages
+from affine_joint_sim.physics.evaluate import STAGE_NAMES
+from helpers.cli import cli
+
+
+def test_a_quick_run_times_every_stage_of_each_scene(tmp_path):
+    done = cli('bench', '--results', tmp_path, 'stages', '--quick')
+    assert done.returncode == 0, done.stdout + done.stderr
+    with (tmp_path / 'stages.csv').open(newline='') as stream:
+        rows = {row['scene']: row for row in csv.DictReader(stream)}
+    assert list(rows) == list(stages.QUICK.scenes) == ['ramp', 'arm6']
+    for name, row in rows.items():
+        contact = name == 'ramp'
+        assert row['contact'] == str(contact) and float(row['newton']) >= 1.0
+        for stage in STAGE_NAMES:
+            timed = stage not in ('step bound', 'near list', 'distances') or contact
+            assert (row[stage] != '') == timed, (name, stage)
+            if timed:
+                assert 0.0 < float(row[stage]) < math.inf, (name, stage)
+    assert '| ramp |' in (tmp_path / 'stages.md').read_text()
