@@ -54,9 +54,9 @@ def _scenes() -> dict:
 
 
 def profile(scene, seconds: float, steps: int, calls: int) -> dict:
-    """One row: ``scene`` stepped ``seconds``, then ``steps`` steps timed, then each stage
-    timed over ``calls`` calls at the state reached (µs per call; None for the contact
-    stages of a scene without contact)."""
+    """One row: ``scene`` stepped ``seconds``, then ``steps`` steps timed and as many again
+    for their Newton statistics, then each stage timed over ``calls`` calls at the state
+    reached (µs per call; None for the contact stages of a scene without contact)."""
     import numpy as np
     import warp as wp
 
@@ -66,15 +66,17 @@ def profile(scene, seconds: float, steps: int, calls: int) -> dict:
     sim = Stepper(scene, threads=1)
     for _ in range(round(seconds / scene.dt)):
         sim.step()
-    iterations, halvings = [], []
     start = time.perf_counter()
     for _ in range(steps):
         sim.step()
+    seconds = time.perf_counter() - start
+    iterations, halvings = [], []
+    for _ in range(steps):          # the next as many steps, read (not timed)
+        sim.step()
         iterations.append(sim.stats['newton_iterations'])
         halvings.append(sim.stats['line_search_halvings'])
-    row = {'us_per_step': (time.perf_counter() - start) / steps * 1e6,
-           'newton': float(np.mean(iterations)), 'halvings': float(np.mean(halvings)),
-           'contact': bool(sim._host.has_contact)}
+    row = {'us_per_step': seconds / steps * 1e6, 'newton': float(np.mean(iterations)),
+           'halvings': float(np.mean(halvings)), 'contact': bool(sim._host.has_contact)}
     timer = stage_timer(sim._k)
     out = wp.zeros(1, dtype=sim._k.scalar)
     for which, name in enumerate(STAGE_NAMES):
@@ -108,7 +110,7 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
                Column('halvings', 'halvings', '{:.2f}')]
     columns += [Column(name, f'{name} µs', '{:.1f}') for name in STAGE_NAMES]
     text = ('## Where a step goes (bench stages)\n\nfloat64, one CPU core: µs/step and Newton '
-            'iterations over the timed steps, then each stage alone at the state reached, µs '
+            'iterations over the steps, then each stage alone at the state reached, µs '
             'per call (— : no contact).\n\n' + markdown_table(rows, columns) + '\n')
     publish(results, 'stages', text, rows)
 
