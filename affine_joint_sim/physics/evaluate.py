@@ -29,14 +29,18 @@ STAGE_NAMES = ('energy', 'assembly', 'gradient', 'factor and solve', 'factored s
 ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START, MOVED, STEP_BOUND = range(6)
 
 
+def _groups(t):
+    """The Model, State, Control and Scratch struct types of the namespace ``t``."""
+    return t.structs.Model, t.structs.State, t.structs.Control, t.structs.Scratch
+
+
 def _probe_kernel(t):
     """One kernel that launches the stage ``which`` (ENERGY, ...) for the types namespace ``t``
     (built once: one module to compile per precision, not one per stage)."""
     key = (t.name, t.bodies)
     if key in _PROBES:
         return _PROBES[key]
-    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
-                                      t.structs.Scratch)
+    Model, State, Control, Scratch = _groups(t)
     vec12, scalar = t.vec12, t.scalar
     incremental_potential, assemble, solve = t.incremental_potential, t.assemble, t.solve
     joint_raw_coordinate, joint_coordinate_gradients = (t.joint_raw_coordinate,
@@ -95,8 +99,7 @@ def stage_timer(t):
     key = (t.name, t.bodies, t.contact, t.shapes)
     if key in _TIMERS:
         return _TIMERS[key]
-    Model, State, Control, Scratch = (t.structs.Model, t.structs.State, t.structs.Control,
-                                      t.structs.Scratch)
+    Model, State, Control, Scratch = _groups(t)
     scalar, one = t.scalar, t.one
     incremental_potential, assemble, solve = t.incremental_potential, t.assemble, t.solve
     solve_factored = t.solve_factored
