@@ -159,6 +159,31 @@ def test_joint_commands_positions_track_as_the_ros2_control_topic_interface_send
     assert 'Traceback' not in output and 'dropped' not in output and 'ignored' not in output
 
 
+def test_joint_commands_velocities_spin_the_damped_joints_to_those_speeds(sim, ros_node,
+                                                                          wait_for, tmp_path):
+    """A velocity command interface's messages (velocity filled, position and effort empty):
+    each joint's damping pulls it to the commanded speed (no gravity, no drive)."""
+    data = yaml.safe_load(SCENES.joinpath('double_pendulum.yaml').read_text())
+    data['gravity'] = [0.0, 0.0, 0.0]
+    for joint in data['joints']:
+        joint['damping'] = 5.0
+    scene = tmp_path / 'damped.yaml'
+    scene.write_text(yaml.safe_dump(data))
+    child = sim('--scene', scene, '--mode', 'realtime', '--real-time-factor', '4.0')
+    states = Inbox(ros_node, 'joint_states')
+    commands = publisher(ros_node, wait_for, 'joint_commands')
+    speeds = (0.5, -0.3)
+
+    def spinning():
+        commands.publish(JointState(name=['shoulder', 'elbow'], velocity=list(speeds)))
+        return states.last is not None and all(
+            abs(v - s) < 1e-3 for v, s in zip(states.last.velocity, speeds))
+
+    assert wait_for(spinning, timeout=30.0), states.last.velocity
+    output = child.stop()
+    assert 'Traceback' not in output and 'ignored' not in output
+
+
 def test_a_non_physical_torque_is_clamped_and_the_joint_keeps_moving(sim, ros_node, wait_for):
     child = sim('--mode', 'realtime', '--real-time-factor', '2.0')
     states = Inbox(ros_node, 'joint_states')
