@@ -83,6 +83,16 @@ def _stat_layout(host) -> tuple[list[str], itemgetter]:
     return [every[c] for c in columns], itemgetter(*columns)
 
 
+def _has_drive(joint) -> bool:
+    """Whether a scene joint has a drive (takes a position target)."""
+    return joint.drive is not None
+
+
+def _has_damping(joint) -> bool:
+    """Whether a scene joint has damping (takes a velocity target)."""
+    return joint.damping > 0.0
+
+
 def _chunks(envs: int, threads: int | None) -> list[tuple[int, int]]:
     """(first environment, count) of each thread's share of ``envs`` (even shares, the first
     ones one larger); ``threads`` None: one per core the process may use."""
@@ -221,12 +231,12 @@ class Stepper:
     @property
     def drive_joint_names(self) -> list[str]:
         """The joints that have a drive (take a target with ``set_target``)."""
-        return [j.name for j in self.scene.joints if j.drive is not None]
+        return [j.name for j in self.scene.joints if _has_drive(j)]
 
     @property
     def damped_joint_names(self) -> list[str]:
         """The joints with damping (take a speed with ``set_velocity_target``)."""
-        return [j.name for j in self.scene.joints if j.damping > 0.0]
+        return [j.name for j in self.scene.joints if _has_damping(j)]
 
     def set_torque(self, name: str, value) -> None:
         """Set joint ``name``'s external torque τ [N·m] (force [N] for a prismatic joint),
@@ -315,8 +325,7 @@ class Stepper:
 
         ``value`` is a scalar or an array of shape (num_envs,); NaN/Inf raise ValueError, and
         so does a joint without a ``drive``."""
-        self._set_joint_input(name, value, self._target, 'a drive', self.drive_joint_names,
-                              'target')
+        self._set_joint_input(name, value, self._target, _has_drive, 'a drive', 'target')
 
     def set_velocity_target(self, name: str, value) -> None:
         """Set the speed [rad/s | m/s] joint ``name``'s damping pulls toward (a velocity
@@ -325,15 +334,16 @@ class Stepper:
 
         ``value`` is a scalar or an array of shape (num_envs,); NaN/Inf raise ValueError, and
         so does a joint without damping."""
-        self._set_joint_input(name, value, self._velocity_target, 'damping',
-                              self.damped_joint_names, 'velocity target')
+        self._set_joint_input(name, value, self._velocity_target, _has_damping, 'damping',
+                              'velocity target')
 
-    def _set_joint_input(self, name: str, value, inputs: np.ndarray, needs: str,
-                         able: list[str], what: str) -> None:
-        """``inputs[:, joint]`` = ``value`` (a scalar or (num_envs,)) for joint ``name``, one of
-        ``able`` (those with ``needs``), finite; else ValueError saying which."""
+    def _set_joint_input(self, name: str, value, inputs: np.ndarray, takes, needs: str,
+                         what: str) -> None:
+        """``inputs[:, joint]`` = ``value`` (a scalar or (num_envs,)) for joint ``name``, which
+        ``takes(joint)`` (those with ``needs``), finite; else ValueError saying which."""
         k = self._joint(name)
-        if self.scene.joints[k].name not in able:
+        if not takes(self.scene.joints[k]):
+            able = [j.name for j in self.scene.joints if takes(j)]
             raise ValueError(f'joint {name!r} has no {needs.split()[-1]}; joints with '
                              f'{needs}: {", ".join(able) or "none"}')
         values = self._per_env(name, value, np.float64)
@@ -385,8 +395,7 @@ class Stepper:
             array.assign(np.ascontiguousarray(value))
         # and no lagged contact forces: the first step lags its own (sim.contacts reads them)
         for array in (self._state.history_ready, self._control.joint_target,
-                      self._control.joint_drive_enabled, self._control.joint_velocity_target,
-                      self._state.joint_velocity,
+                      self._control.joint_drive_enabled, self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float,
                       self._scratch.friction_normal, self._scratch.normal_damping):
             array.zero_()
@@ -397,7 +406,7 @@ class Stepper:
                       self._state.joint_position):
             array.assign(x0)
         self._warned = set()
-        self._velocity_target[:] = 0.0     # the host's copy too (uploaded below on a GPU)
+        self._velocity_target[:] = 0.0     # no commanded speeds (uploaded below on a GPU)
         for k, joint in enumerate(self.scene.joints):
             if joint_kind(joint.type).command is not None:
                 self.set_torque(joint.name, joint.torque)

@@ -14,7 +14,7 @@ from affine_joint_sim.physics.host.fields import (allocate, array_sizes, device_
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
 from affine_joint_sim.physics.host.model import build_model
 
-__all__ = ['STAGE_NAMES', 'Stages', 'stage_timer']
+__all__ = ['CONTACT_STAGES', 'STAGE_NAMES', 'Stages', 'stage_timer']
 
 _PROBES = {}
 _TIMERS = {}
@@ -22,8 +22,9 @@ _TIMERS = {}
 # The stages ``stage_timer`` runs, in its ``which`` order: the incremental potential, the
 # assembly with and without the Hessian, the solve with and without factoring, and with
 # contact the step bound, the near list's gathering and the smallest distance
+CONTACT_STAGES = ('step bound', 'near list', 'distances')
 STAGE_NAMES = ('energy', 'assembly', 'gradient', 'factor and solve', 'factored solve',
-               'step bound', 'near list', 'distances')
+               *CONTACT_STAGES)
 
 
 ENERGY, NEWTON_SYSTEM, COORDINATES, WARM_START, MOVED, STEP_BOUND = range(6)

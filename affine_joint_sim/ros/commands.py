@@ -151,28 +151,31 @@ class CommandBuffer:
     def velocity(self, joint: str, value: float) -> str | None:
         """Queue the speed ``value`` [rad/s | m/s] ``joint``'s damping pulls toward; returns
         why it was dropped (no damping: said once per joint; not finite), or None."""
-        if joint not in self.damped_joints:
-            if joint in self._no_damping_said:
-                return None
-            self._no_damping_said.add(joint)
-            return (f'joint {joint!r} has no damping: its velocity commands are ignored (said '
-                    'once; its damping is the velocity drive\'s gain)')
-        if not math.isfinite(value):
-            return f'velocity {value!r} for joint {joint!r} is not finite: dropped'
-        self._speed[joint] = float(value)
-        return None
+        return self._queue(joint, value, self.damped_joints, self._no_damping_said,
+                           self._speed, 'velocity', 'has no damping: its velocity commands are '
+                           'ignored (said once; its damping is the velocity drive\'s gain)')
 
     def position(self, joint: str, value: float) -> str | None:
         """Queue drive target ``value`` [rad | m] for ``joint``; returns why it was dropped
         (no drive: said once per joint; not finite), or None."""
-        if joint not in self.drive_joints:
-            if joint in self._no_drive_said:
+        return self._queue(joint, value, self.drive_joints, self._no_drive_said, self._target,
+                           'position', 'has no drive: its position commands are ignored (said '
+                           'once)')
+
+    @staticmethod
+    def _queue(joint: str, value: float, able: set, said: set, pending: dict, what: str,
+               refusal: str) -> str | None:
+        """``pending[joint]`` = ``value`` for a joint of ``able``; returns why it was dropped:
+        not one of ``able`` (``refusal``, said once per joint: ``said``) or not finite; or
+        None."""
+        if joint not in able:
+            if joint in said:
                 return None
-            self._no_drive_said.add(joint)
-            return f'joint {joint!r} has no drive: its position commands are ignored (said once)'
+            said.add(joint)
+            return f'joint {joint!r} {refusal}'
         if not math.isfinite(value):
-            return f'position {value!r} for joint {joint!r} is not finite: dropped'
-        self._target[joint] = float(value)
+            return f'{what} {value!r} for joint {joint!r} is not finite: dropped'
+        pending[joint] = float(value)
         return None
 
     def effort_array(self, values) -> list[str]:
