@@ -55,6 +55,9 @@ _PROBLEMS = {      # by physics.host.fields.PROBLEM_NAMES
                       'was dropped this step',
     'line_search_failures': f'the line search found no decrease in {HALVINGS} halvings',
 }
+# the column of steps whose near list outgrew its room: taken again at once (Stepper._retake),
+# not a problem a user sees
+_NEAR_FULL = PROBLEM_COLUMNS.index('near_full')
 _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_rejected')
 # Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU
 # (State arrays, and the Scratch ones the contact report needs).
@@ -165,6 +168,8 @@ class Stepper:
         self._pair_name_cache = {}
         # the scene's sensors (README.md#sensors); None without any: nothing to pay for
         self._sensors = SensorSet(scene) if scene.sensors else None
+        self._near_room = self._host.near_room      # pairs a near list has room for
+        self._graphs = None
         self._allocate()
         self.reset()
         self._record()
@@ -209,7 +214,16 @@ class Stepper:
         """Environment-steps that had each kind of problem since the Stepper was made (a reset
         does not clear them): not_converged, non_finite and angle_aliased (both rejected, the
         last good state kept), torque_dropped, line_search_failures."""
-        return dict(zip(PROBLEM_COLUMNS[1:], (int(n) for n in self._problem_totals[1:])))
+        return {name: int(n) for name, n in zip(PROBLEM_COLUMNS[1:], self._problem_totals[1:])
+                if name != 'near_full'}
+
+    @property
+    def near_room(self) -> int:
+        """Contact pairs a near list holds per environment (the pairs a step evaluates: those
+        within d̂ plus each body's margin at the step's start); it starts at twice the moving
+        contact points, edges and faces (at least 64) and doubles, at once, when a step needs
+        more (README.md#contact)."""
+        return self._near_room
 
     @property
     def step_effort_bounds(self) -> np.ndarray:
@@ -379,6 +393,8 @@ class Stepper:
         self._contacts = None          # computed again when next asked for
         self._steps += 1
         counts = self._problems.sum(axis=0) if self._pool is not None else self._problems[0]
+        if counts[_NEAR_FULL] != 0:
+            counts = self._retake(counts.copy())
         if counts[0] != 0:
             self._problem_totals += counts
             self._check(counts)
@@ -397,7 +413,8 @@ class Stepper:
         for array in (self._state.history_ready, self._control.joint_target,
                       self._control.joint_drive_enabled, self._state.joint_velocity,
                       self._state.joint_effort, self._state.stats_int, self._state.stats_float,
-                      self._scratch.friction_normal, self._scratch.normal_damping):
+                      self._scratch.friction_normal, self._scratch.normal_damping,
+                      self._scratch.near_full):
             array.zero_()
         self._list_near(h.body_q0)
         x0 = np.ascontiguousarray(np.broadcast_to(h.joint_initial_position,
@@ -419,14 +436,66 @@ class Stepper:
         self._contacts = None          # computed again when next asked for
         self._steps = 0
 
+    def _retake(self, counts: np.ndarray) -> np.ndarray:
+        """Take again, with more room, the step of every environment whose near list outgrew
+        its room (``scratch.near_full``: that step was rejected before it changed anything
+        but its list; grown and taken again until none does). Returns the step's problem
+        counts (``counts``: those of the launch) with the steps taken again in place of the
+        rejected ones. Taken again from the start of the step's contact stage, a step has the
+        bits it would have had with the room from the start; one whose list outgrew the room
+        only in Newton's search carries this step's contact damping, not the last one's, into
+        friction's lagged load."""
+        while counts[_NEAR_FULL] != 0:
+            full = self._scratch.near_full.numpy()
+            self._grow_near(int(full.max()))
+            counts[[0, _NEAR_FULL]] -= counts[_NEAR_FULL]
+            problems = self._state.problem_counts
+            problems.zero_()
+            args = [self._model, self._state, self._control, self._scratch]
+            for env in np.flatnonzero(full):
+                wp.launch(self._k.step, dim=1, inputs=[*args, int(env), 0], device=self.device)
+            if self._problems_host is not problems:
+                wp.copy(self._problems_host, problems)
+                wp.synchronize_device(self.device)
+            counts += self._problems.sum(axis=0)
+        return counts
+
+    def _grow_near(self, needed: int) -> None:
+        """Room for ``needed`` pairs in the two near lists together (twice the room of one):
+        the room doubles until it holds them (at most every pair), the near arrays are made
+        again with their lists and lagged values kept, and the step (and the replays that
+        read them) recorded again."""
+        room = self._near_room
+        while 2 * room < needed:
+            room *= 2
+        room = min(room, self._host.pair_count)
+        if room == self._near_room:
+            return
+        self._near_room = room
+        scratch = self._scratch
+        for name in ('near_pairs', 'friction_normal', 'normal_damping', 'damping_release',
+                     'damping_before'):
+            old = getattr(scratch, name)
+            rows = np.zeros((old.shape[0], 2 * room), dtype=old.numpy().dtype)
+            rows[:, :old.shape[1]] = old.numpy()
+            setattr(scratch, name, wp.array(rows, dtype=old.dtype, device=self.device))
+        self._held = held_structs(self._k, self.device, model=self._model, state=self._state,
+                                  control=self._control, scratch=scratch)
+        self._report = self._sensor_read = None     # their replays held the old arrays
+        if self._graphs is not None:
+            self._record()
+
     def _list_near(self, q: np.ndarray) -> None:
         """Every environment's near list (``scratch.near_pairs``, as a step gathers it) for
         the one state ``q`` (n_bodies, 12) they all start from: its pairs closer than d̂, so
         that ``contacts`` reads the start or a reset before any step."""
         if not self._host.has_contact:
             return
+        model, d_hat = vars(self._host), self._host.contact_d_hat
+        near = [p for p in near_pairs(model, q, d_hat)
+                if pair_gap(model, q, int(p)).distance < d_hat]
+        self._grow_near(2 * len(near))
         pairs, count = self._scratch.near_pairs.numpy(), self._scratch.near_count.numpy()
-        near = near_pairs(vars(self._host), q, self._host.contact_d_hat)
         pairs[:, :len(near)] = near
         count[:] = len(near)
         self._store(self._scratch.near_pairs, pairs)
@@ -461,12 +530,13 @@ class Stepper:
             rows = array.numpy()
             rows[env, b] = row
             self._store(array, rows)
+        listed = scratch.near_pairs.numpy()[env, :scratch.near_count.numpy()[env]]
         for array in (scratch.friction_normal, scratch.normal_damping):
             lagged = array.numpy()
-            for p in np.flatnonzero(lagged[env]):      # none without contact
-                gap = pair_gap(vars(host), q, int(p))
+            for k in np.flatnonzero(lagged[env, :len(listed)]):    # none without contact
+                gap = pair_gap(vars(host), q, int(listed[k]))
                 if b in (gap.body, gap.other):
-                    lagged[env, p] = 0.0
+                    lagged[env, k] = 0.0
             self._store(array, lagged)
         ready = state.history_ready.numpy()
         ready[env] = 0
@@ -773,7 +843,7 @@ class Stepper:
 
     def _allocate(self):
         k, h, dev, n = self._k, self._host, self.device, self._envs
-        sizes = array_sizes(h, n, len(self._chunks))
+        sizes = array_sizes(h, n, len(self._chunks), self._near_room)
         self._model = device_model(k, k.structs.Model, h, dev)
         state, control, scratch = (allocate(k, getattr(k.structs, group.capitalize()), group,
                                             sizes, dev)

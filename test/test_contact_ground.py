@@ -334,10 +334,9 @@ def test_friction_and_damping_gradients_and_hessians_match_finite_differences(sl
     # a lagged normal force and damping on every point against the plane, as at the step
     # start (the damping's c·dt: its term ½ c dt (d − d_n)² is checked with friction's, and
     # with a release nearer than every pair its pull that cancels the barrier's push)
-    points = len(with_contact.host.point_body)
-    with_contact.scratch.friction_normal.assign(np.full((1, points), 2.5e-4))
-    with_contact.scratch.normal_damping.assign(np.full((1, points), 3.0e-2))
-    with_contact.scratch.damping_release.assign(np.full((1, points), release))
+    with_contact.scratch.friction_normal.fill_(2.5e-4)
+    with_contact.scratch.normal_damping.fill_(3.0e-2)
+    with_contact.scratch.damping_release.fill_(release)
     q_tilde = q.copy()
     # where the pull cancels the barrier only friction is left, small against the energies'
     # rounding (~1e-17 J): a longer difference step and a rounding share ten times larger

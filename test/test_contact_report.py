@@ -17,10 +17,15 @@ SCENES = Path(__file__).resolve().parents[1] / 'msg_configs' / 'scenes'
 def _reference(sim, env=0):
     scratch = sim._scratch
     q = sim.body_q if sim.num_envs == 1 else sim.body_q[env]
+    listed = scratch.near_pairs.numpy()[env, :scratch.near_count.numpy()[env]]
+
+    def per_pair(lagged):       # the listed pairs' lagged values, by pair
+        values = np.zeros(sim._host.pair_count)
+        values[listed] = lagged.numpy()[env, :len(listed)]
+        return values
     return active_contacts(sim._host, q, scratch.q_n.numpy()[env],
-                           scratch.friction_normal.numpy()[env],
-                           scratch.normal_damping.numpy()[env], sim.body_names,
-                           sim._host.static_names)
+                           per_pair(scratch.friction_normal), per_pair(scratch.normal_damping),
+                           sim.body_names, sim._host.static_names)
 
 
 def _assert_same(contacts, reference):

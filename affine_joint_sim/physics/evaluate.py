@@ -128,7 +128,8 @@ def stage_timer(t):
                 if which == 5:
                     total += step_bound(model, scratch, env)
                 elif which == 6:
-                    scratch.near_count[env] = gather_near(model, scratch, env, 0)
+                    scratch.near_count[env] = wp.min(gather_near(model, scratch, env, 0),
+                                                     scratch.near_pairs.shape[1])
                 else:
                     nearest, active = touching(model, state.q, scratch, env, 0)
                     total += nearest
@@ -146,7 +147,7 @@ class Stages:
         self.t = step_kernels(scalar_of(scene.solver.precision), self.host.has_body_pairs)
         self.device = device
         nb = self.host.body_count
-        sizes = array_sizes(self.host, 1)
+        sizes = array_sizes(self.host, 1, near_room=self.host.pair_count)   # every pair
         self.model = device_model(self.t, self.t.structs.Model, self.host, device)
         self.state, self.control, self.scratch = (
             allocate(self.t, getattr(self.t.structs, group.capitalize()), group, sizes, device)

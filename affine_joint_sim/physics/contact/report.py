@@ -37,9 +37,10 @@ def build(t) -> SimpleNamespace:
     world_point = t.world_point
 
     @wp.func
-    def normal_force(model: Model, state: State, scratch: Scratch, env: int, p: int,
+    def normal_force(model: Model, state: State, scratch: Scratch, env: int, k: int, p: int,
                      d: scalar):
-        """The barrier's push plus the damper's force [N] of pair p at distance d < d̂: minus
+        """The barrier's push plus the damper's force [N] of the k-th listed pair p at
+        distance d < d̂: minus
         their gradients along d (the step's own, ``contact.terms.damper``) over dt², never
         below 0."""
         body, other = pair_bodies(model, p)
@@ -47,14 +48,15 @@ def build(t) -> SimpleNamespace:
         e, b1, b2 = barrier(model, d)
         force = -dt2 * pair_weight(model, scratch.q_n[env, body],
                                    other_state(scratch.q_n, env, body, other), p) * b1
-        if scratch.normal_damping[env, p] > zero:
-            psi, dpsi, ddpsi, n, rest, rest_o = damper(model, state.q, scratch, env, p)
+        if scratch.normal_damping[env, k] > zero:
+            psi, dpsi, ddpsi, n, rest, rest_o = damper(model, state.q, scratch, env, k)
             force -= dpsi
         return wp.max(force / dt2, zero)
 
     @wp.func
-    def friction_force(model: Model, state: State, scratch: Scratch, env: int, p: int):
-        """The lagged friction force [N, world, on the pair's first body] at state.q."""
+    def friction_force(model: Model, state: State, scratch: Scratch, env: int, k: int, p: int):
+        """The lagged friction force [N, world, on the pair's first body] of the k-th listed
+        pair p at state.q."""
         body, other = pair_bodies(model, p)
         dt2 = model.dt * model.dt
         mu = pair_friction(model, p, body, other)
@@ -65,27 +67,28 @@ def build(t) -> SimpleNamespace:
                                             model.contact_eps_velocity * model.dt)
             d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(model, scratch.q_n, env, p)
             t1 = pair_tangent(model, p, n_n)
-            force = (-mu * scratch.friction_normal[env, p] / dt2 * f1_over_y
+            force = (-mu * scratch.friction_normal[env, k] / dt2 * f1_over_y
                      * (u1 * t1 + u2 * wp.cross(n_n, t1)))
         return force
 
     @wp.func
-    def pair_contact(model: Model, state: State, scratch: Scratch, env: int, p: int):
-        """(active, body, other, d [m], n, point [m, world], normal force [N], friction
-        force [N, world, on ``body``]) of listed pair p at state.q; ``body``, ``other`` as
-        ``pair_bodies`` gives them. An inactive pair's forces are 0."""
+    def pair_contact(model: Model, state: State, scratch: Scratch, env: int, k: int):
+        """(p, active, body, other, d [m], n, point [m, world], normal force [N], friction
+        force [N, world, on ``body``]) of the k-th listed pair p at state.q; ``body``,
+        ``other`` as ``pair_bodies`` gives them. An inactive pair's forces are 0."""
+        p = listed_pair(model, scratch, env, k)
         body, other = pair_bodies(model, p)
         d, n, rest, radius, rest_o, radius_o = gap_at(model, state.q, env, p)
-        lagged = scratch.friction_normal[env, p] > zero
+        lagged = scratch.friction_normal[env, k] > zero
         active = d > zero and (d < model.contact_d_hat or lagged)
         point = world_point(state.q[env, body], rest) - (radius + d) * n
         push = zero
         if active and d < model.contact_d_hat:
-            push = normal_force(model, state, scratch, env, p, d)
+            push = normal_force(model, state, scratch, env, k, p, d)
         friction = vec3()
         if active and lagged:
-            friction = friction_force(model, state, scratch, env, p)
-        return active, body, other, d, n, point, push, friction
+            friction = friction_force(model, state, scratch, env, k, p)
+        return p, active, body, other, d, n, point, push, friction
 
     @wp.kernel(module='unique', enable_backward=False, module_options=t.kernel_options)
     def contact_report(model: Model, state: State, scratch: Scratch,
@@ -94,9 +97,8 @@ def build(t) -> SimpleNamespace:
         env = wp.tid()
         found = int(0)
         for k in range(listed(model, scratch, env)):
-            p = listed_pair(model, scratch, env, k)
-            active, body, other, d, n, point, push, friction = pair_contact(
-                model, state, scratch, env, p)
+            p, active, body, other, d, n, point, push, friction = pair_contact(
+                model, state, scratch, env, k)
             if active:
                 if found < pairs.shape[1]:
                     pairs[env, found] = p

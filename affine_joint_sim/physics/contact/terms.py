@@ -90,16 +90,23 @@ def build(t) -> SimpleNamespace:
             mu = model.body_friction[body, other]
         return mu
 
+    @wp.func(inline=True)
+    def put_near(scratch: Scratch, env: int, p: int, at: int):
+        """near_pairs[at] = p where the room holds it; returns at + 1 either way (a list
+        longer than the room is counted, not written: ``relist``)."""
+        if at < scratch.near_pairs.shape[1]:
+            scratch.near_pairs[env, at] = p
+        return at + 1
+
     @wp.func
     def add_near(model: Model, scratch: Scratch, env: int, p: int, reach_: scalar, at: int):
         """Write pair p to near_pairs[at] if it may touch and its distance at q_n is below
-        ``reach_`` [m]; returns the next free index."""
+        ``reach_`` [m]; returns the next index (counted on beyond the room: ``put_near``)."""
         out = at
         if pair_on(model, p):
             d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_n, env, p)
             if d < reach_:
-                scratch.near_pairs[env, at] = p
-                out = at + 1
+                out = put_near(scratch, env, p, at)
         return out
 
     @wp.func
@@ -376,8 +383,7 @@ def build(t) -> SimpleNamespace:
                     if not far:
                         d, n = distance(model, scratch.q_n[env, b], i, g)
                         if d < reach:
-                            scratch.near_pairs[env, at] = i * things + g
-                            at += 1
+                            at = put_near(scratch, env, i * things + g, at)
         if wp.static(shapes):
             statics_e = model.static_edge_a.shape[0]
             edges = model.edge_body.shape[0]
@@ -400,13 +406,61 @@ def build(t) -> SimpleNamespace:
 
     gather = apart(t, gather_near)     # out of line (physics.stages.out_of_line)
 
+    @wp.func(inline=True)
+    def carry(scratch: Scratch, env: int, to: int, source: int):
+        """The lagged values of near list slot ``source`` into slot ``to`` (none: −1)."""
+        force = zero
+        damping = zero
+        release_ = zero
+        before = zero
+        if source >= 0:
+            force = scratch.friction_normal[env, source]
+            damping = scratch.normal_damping[env, source]
+            release_ = scratch.damping_release[env, source]
+            before = scratch.damping_before[env, source]
+        scratch.friction_normal[env, to] = force
+        scratch.normal_damping[env, to] = damping
+        scratch.damping_release[env, to] = release_
+        scratch.damping_before[env, to] = before
+
+    @wp.func
+    def relist(scratch: Scratch, env: int, old: int, fresh: int):
+        """Make the list gathered into near_pairs[old, old + fresh) the near list: each pair
+        keeps the lagged values it had in the list near_pairs[0, old) (both ascending: one
+        merge), a new one gets none, and the list moves to the front: only listed pairs hold
+        lagged values. A list beyond the room (old + fresh > near_pairs' room) is not taken:
+        the old one stays and near_full says how many the room would need (the step is
+        rejected and taken again with more room, ``commit.finish``, ``Stepper``). Returns 1 if
+        the list was taken."""
+        taken = int(0)
+        if old + fresh > scratch.near_pairs.shape[1]:
+            scratch.near_full[env] = wp.max(scratch.near_full[env], old + fresh)
+        else:
+            taken = 1
+            i = int(0)
+            for j in range(old, old + fresh):
+                p = scratch.near_pairs[env, j]
+                while i < old and scratch.near_pairs[env, i] < p:
+                    i += 1
+                source = int(-1)
+                if i < old:
+                    if scratch.near_pairs[env, i] == p:
+                        source = i
+                carry(scratch, env, j, source)
+            for j in range(fresh):
+                scratch.near_pairs[env, j] = scratch.near_pairs[env, old + j]
+                carry(scratch, env, j, old + j)
+            scratch.near_count[env] = fresh
+        return taken
+
     @wp.func(inline=INLINE)
     def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
               along: int):
         """Keep every pair not listed beyond d̂ at q, or with ``along`` on the whole path
         q + α dq, α ∈ [0, 1] (dq: scratch.dq): a body whose points, edges and faces may be
         farther from where they were at q_n than its margin (``motion`` of q − q_n, plus of
-        dq along the path) gets twice that margin, and near_pairs is gathered again."""
+        dq along the path) gets twice that margin, and near_pairs is gathered again
+        (``relist``: the lagged values go with their pairs)."""
         if pair_count(model) > 0:
             wider = int(0)
             for k in range(model.elim_order.shape[0]):
@@ -418,7 +472,8 @@ def build(t) -> SimpleNamespace:
                     scratch.body_margin[env, b] = two * reach
                     wider = 1
             if wider != 0:
-                scratch.near_count[env] = gather(model, scratch, env, 0)
+                old = scratch.near_count[env]
+                relist(scratch, env, old, gather(model, scratch, env, old))
 
     @wp.func
     def tangent_of(n: vec3):
@@ -473,24 +528,6 @@ def build(t) -> SimpleNamespace:
         return one / inverse
 
     @wp.func
-    def retire(model: Model, scratch: Scratch, env: int, old: int, fresh: int):
-        """Zero the lagged forces of the pairs in near_pairs[0, old) that are not in
-        near_pairs[old, old + fresh) (marked in scratch.pair_mark meanwhile), then move the
-        fresh list to the front: only listed pairs ever hold lagged forces."""
-        for k in range(old, old + fresh):
-            scratch.pair_mark[env, scratch.near_pairs[env, k]] = 1
-        for j in range(old):
-            p = scratch.near_pairs[env, j]
-            if scratch.pair_mark[env, p] == 0:
-                scratch.friction_normal[env, p] = zero
-                scratch.normal_damping[env, p] = zero
-        for j in range(fresh):
-            p = scratch.near_pairs[env, old + j]
-            scratch.pair_mark[env, p] = 0
-            scratch.near_pairs[env, j] = p
-        scratch.near_count[env] = fresh
-
-    @wp.func
     def pair_mass(model: Model, scratch: Scratch, env: int, body: int, other: int,
                   rest: vec3, radius: scalar, rest_other: vec3, radius_other: scalar, n: vec3):
         """m_eff [kg] of a pair along its normal n at q_n: ``point_mass`` of its body at the
@@ -534,22 +571,36 @@ def build(t) -> SimpleNamespace:
         the others) and its ``release`` into scratch.damping_release; an edge pair's
         mollifier weighs them. Returns how many pairs the step cannot resolve: beyond d̂ at
         q_n and closer than (1 − ARRIVING) d̂ at the prediction q̃ (an impact arrives), or
-        stiffer than STIFF m_eff/dt² (deep in the barrier)."""
+        stiffer than STIFF m_eff/dt² (deep in the barrier); −1 where the list outgrew its
+        room (``relist``: nothing lagged, the step is rejected)."""
+        # taken again after its list outgrew the room in Newton's search, the step finds this
+        # step's damping in its list: the last step's is kept beside it (damping_before)
+        again = scratch.near_full[env] != 0
+        scratch.near_full[env] = 0
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * motion(
                 model, b, scratch.q_tilde[env, b] - scratch.q_n[env, b]))
         old = scratch.near_count[env]
-        fresh = gather(model, scratch, env, old)
-        arriving = int(0)
-        for k in range(old, old + fresh):
+        arriving = int(-1)
+        count = int(0)
+        if relist(scratch, env, old, gather(model, scratch, env, old)) != 0:
+            arriving = 0
+            count = scratch.near_count[env]
+        else:       # not taken: the list holds the last step's damping (taken again: ``again``)
+            for k in range(old):
+                scratch.damping_before[env, k] = scratch.normal_damping[env, k]
+        for k in range(count):
             p = scratch.near_pairs[env, k]
             body, other = pair_bodies(model, p)
             qb = scratch.q_n[env, body]
             qo = other_state(scratch.q_n, env, body, other)
             force = zero
             stiffness = zero
-            last_damping = scratch.normal_damping[env, p]
+            last_damping = scratch.normal_damping[env, k]
+            if again:
+                last_damping = scratch.damping_before[env, k]
+            scratch.damping_before[env, k] = last_damping
             d, n, rest, radius, rest_o, radius_o = pair_gap(model, qb, qo, p)
             damping = zero
             if d >= model.contact_d_hat:
@@ -568,16 +619,15 @@ def build(t) -> SimpleNamespace:
                 if model.contact_damping > zero:
                     damping = (two * model.contact_damping * wp.sqrt(stiffness * mass)
                                * model.dt)
-                    scratch.damping_release[env, p] = release(
+                    scratch.damping_release[env, k] = release(
                         model, d, damping, model.dt * model.dt * weight)
                 if last_damping > zero:
                     d_prev, n_prev, r_prev, rr_prev, ro_prev, rro_prev = gap_at(
                         model, state.q_prev, env, p)
                     force += wp.clamp(last_damping * (wp.min(d_prev, model.contact_d_hat) - d),
                                       -force, force)
-            scratch.friction_normal[env, p] = force
-            scratch.normal_damping[env, p] = damping
-        retire(model, scratch, env, old, fresh)
+            scratch.friction_normal[env, k] = force
+            scratch.normal_damping[env, k] = damping
         return arriving
 
     @wp.func
@@ -641,17 +691,19 @@ def build(t) -> SimpleNamespace:
         return found
 
     @wp.func
-    def damper(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int):
-        """(Ψ [J·s²], dΨ/dd [N·s²], d²Ψ/dd² [kg], n, x̄, ȳ) of pair p's contact damper at q,
+    def damper(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int):
+        """(Ψ [J·s²], dΨ/dd [N·s²], d²Ψ/dd² [kg], n, x̄, ȳ) of the contact damper of the k-th
+        listed pair p at q,
         d = min(d(q), d̂), a = d − min(d_n, d̂): ½ c dt a², a viscous force −c ḋ (ḋ ≈ a/dt)
         against the contact's approach and its opening, until the opening pair passes its
         ``release`` s; beyond s the damper pulls exactly as hard as the barrier pushes,
         Ψ = ½ c dt (s − d_n)² + dt² w (b(s) − b(d)) (a contact is never pulled), and its
         curvature cancels the barrier's (``add_contact``). Flat beyond d̂."""
-        c = scratch.normal_damping[env, p]
+        p = listed_pair(model, scratch, env, k)
+        c = scratch.normal_damping[env, k]
         d, n, rest, rest_o = clamped_gap(model, q, env, p)
         d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
-        s = scratch.damping_release[env, p]
+        s = scratch.damping_release[env, k]
         energy = half * c * (d - d_n) * (d - d_n)
         gradient = c * (d - d_n)
         curvature = c
@@ -672,9 +724,8 @@ def build(t) -> SimpleNamespace:
         """Σ Ψ over the pairs with lagged damping [J·s²] (``damper``)."""
         energy = zero
         for k in range(listed(model, scratch, env)):
-            p = listed_pair(model, scratch, env, k)
-            if scratch.normal_damping[env, p] > zero:
-                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, p)
+            if scratch.normal_damping[env, k] > zero:
+                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, k)
                 energy += psi
         return energy
 
@@ -685,10 +736,9 @@ def build(t) -> SimpleNamespace:
         the distance's curvature left out, as for the barrier: with the barrier's, never
         negative)."""
         for k in range(listed(model, scratch, env)):
-            p = listed_pair(model, scratch, env, k)
-            if scratch.normal_damping[env, p] > zero:
-                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, p)
-                body, other = pair_bodies(model, p)
+            if scratch.normal_damping[env, k] > zero:
+                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, k)
+                body, other = pair_bodies(model, listed_pair(model, scratch, env, k))
                 w = jacobian_transpose(rest, n)
                 w_o = -jacobian_transpose(rest_o, n)
                 push(scratch, env, body, other, dpsi, w, w_o)
@@ -750,7 +800,7 @@ def build(t) -> SimpleNamespace:
         eps = model.contact_eps_velocity * model.dt
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            force = scratch.friction_normal[env, p]
+            force = scratch.friction_normal[env, k]
             if force > zero:
                 body, other = pair_bodies(model, p)
                 u1, u2, w1, w2, v1, v2 = slip(model, q, scratch, env, p, body, other)
@@ -769,7 +819,7 @@ def build(t) -> SimpleNamespace:
         count = int(0)
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            force = scratch.friction_normal[env, p]
+            force = scratch.friction_normal[env, k]
             weight = zero
             body = int(0)
             other = int(-1)

@@ -13,7 +13,8 @@ may touch each other), ``body_end`` and ``touch_end`` (one more than ``body``, `
 ``static_pair`` (point × static thing: the planes, then the shapes; then edge × static edge;
 then face × static vertex), ``pair`` (the static pairs, then those of each pair of bodies that
 may touch: its points against the other's faces both ways, then its edges against the
-other's) and ``near`` (twice the pairs);
+other's) and ``near`` (room for two near lists, the last step's and the next: twice
+``HostModel.near_room`` pairs, grown by the Stepper where a step needs more);
 ``()`` is a plain struct member, not an array. Frames: world, SI units.
 """
 
@@ -59,7 +60,7 @@ COUPLED_STATS = ('inner_iterations', 'inner_stalls')
 # The kinds of trouble a step reports (Stepper warns once per kind): state.problem_counts holds
 # per step the number of environments with each, after column 0, the number with any.
 PROBLEM_NAMES = ('not_converged', 'non_finite', 'angle_aliased', 'torque_dropped',
-                 'line_search_failures')
+                 'line_search_failures', 'near_full')
 PROBLEM_COLUMNS = ('any',) + PROBLEM_NAMES
 
 B, F, J, E = ('body',), ('free',), ('joint',), ('env',)
@@ -237,19 +238,22 @@ FIELDS = _fields('model', [
     ('coupling', 'mat12', EB, 'kg^½', 'L⁻¹ H[b, parent] of the tree solve'),
     ('joint_raw', 'scalar', EJ, 'rad | m', 'raw coordinate of each joint at the Newton result '
      '(joint_raw_coordinate), for the commit'),
-    ('friction_normal', 'scalar', ('env', 'pair'), 'N·s²', 'lagged normal force dt²·λ of each '
-     'pair at the start of the step (0: no friction this step)'),
-    ('normal_damping', 'scalar', ('env', 'pair'), 'kg', 'lagged c·dt of each pair: its damping '
-     'c = 2ζ √(k m) [N·s/m] at the start of the step (0: none this step)'),
-    ('damping_release', 'scalar', ('env', 'pair'), 'm', 'the distance beyond which an opening '
-     'pair\'s damper only cancels its barrier\'s push (where normal_damping > 0)'),
-    ('near_pairs', 'int32', ('env', 'near'), '-', 'the pairs evaluated this step, the static '
-     'ones first and ascending: those within d̂ + body_margin at q_n (both bodies\' margins '
-     'for a pair of bodies; the others stay beyond d̂); room for two lists, the last step\'s '
-     'and the next'),
+    ('near_pairs', 'int32', ('env', 'near'), '-', 'the pairs evaluated this step, ascending '
+     '(the static ones first): those within d̂ + body_margin at q_n (both bodies\' margins for '
+     'a pair of bodies; the others stay beyond d̂); the list in [0, near_count), the room after '
+     'it for the next one'),
     ('near_count', 'int32', E, '-', 'how many near_pairs'),
-    ('pair_mark', 'int32', ('env', 'pair'), '-', '1 while a pair is in the fresh near list '
-     '(zero between steps)'),
+    ('near_full', 'int32', E, '-', '0, or how many pairs a near list needed this step where '
+     'they outgrew the room: the step is rejected and the Stepper grows the room'),
+    ('friction_normal', 'scalar', ('env', 'near'), 'N·s²', 'lagged normal force dt²·λ of each '
+     'listed pair (beside its entry of near_pairs) at the start of the step (0: no friction '
+     'this step)'),
+    ('normal_damping', 'scalar', ('env', 'near'), 'kg', 'lagged c·dt of each listed pair: its '
+     'damping c = 2ζ √(k m) [N·s/m] at the start of the step (0: none this step)'),
+    ('damping_release', 'scalar', ('env', 'near'), 'm', 'the distance beyond which an opening '
+     'pair\'s damper only cancels its barrier\'s push (where normal_damping > 0)'),
+    ('damping_before', 'scalar', ('env', 'near'), 'kg', 'normal_damping of the step before '
+     '(what friction\'s lagged load reads, kept for a step taken again with more room)'),
     ('point_world', 'vec3', ('env', 'point'), 'm', 'each contact point at q_n, for the broad '
      'phase of pairs of bodies'),
     ('point_size', 'scalar', ('env', 'point'), 'm', 'its radius, beside it'),
@@ -359,9 +363,10 @@ def held_structs(t, device, **structs) -> list:
     return held
 
 
-def array_sizes(host, envs: int, chunks: int = 1) -> dict:
+def array_sizes(host, envs: int, chunks: int = 1, near_room: int | None = None) -> dict:
     """The symbolic dimensions of the fields for a host model and ``envs`` environments
-    stepped in ``chunks`` launches (one problem count row each)."""
+    stepped in ``chunks`` launches (one problem count row each), with room for ``near_room``
+    pairs in a near list (``host.near_room`` by default)."""
     return {'env': envs, 'chunk': chunks, 'body': host.body_count,
             'free': int(np.sum(host.body_fixed == 0)),
             'joint': host.joint_count, 'point': len(host.point_body),
@@ -373,7 +378,7 @@ def array_sizes(host, envs: int, chunks: int = 1) -> dict:
             'face': len(host.face_body), 'static_edge': len(host.static_edge_a),
             'static_vertex': len(host.static_vertex),
             'surface': len(host.surface_radius),
-            'near': 2 * host.pair_count,
+            'near': 2 * (host.near_room if near_room is None else near_room),
             'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 

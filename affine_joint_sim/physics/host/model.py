@@ -23,6 +23,8 @@ from affine_joint_sim.physics.host.rigidity import body_rigidity
 from affine_joint_sim.rotations import rotation_matrix
 from affine_joint_sim.sim_warnings import SimulationWarning
 
+NEAR_ROOM_LEAST = 64    # pairs: the least room of a near list (HostModel.near_room)
+
 __all__ = ['HostModel', 'build_model', 'jacobian', 'direction_jacobian', 'linear_pairs',
            'residual_jacobians', 'largest_step_efforts']
 
@@ -71,6 +73,14 @@ class HostModel:
     def pair_count(self) -> int:
         """Contact pairs numbered (physics.host.fields ``pair``)."""
         return pair_total(vars(self))
+
+    @property
+    def near_room(self) -> int:
+        """Pairs a near list has room for at first (physics.host.fields ``near``): twice the
+        moving contact primitives (points, edges, faces), at least 64, at most every pair. A
+        step whose list needs more is taken again with more room (``Stepper``)."""
+        primitives = len(self.point_body) + len(self.edge_body) + len(self.face_body)
+        return min(self.pair_count, max(NEAR_ROOM_LEAST, 2 * primitives))
 
 
 def jacobian(x_bar) -> np.ndarray:

@@ -274,7 +274,7 @@ def build(t) -> SimpleNamespace:
         positive; only listed pairs hold one)."""
         found = int(0)
         for k in range(scratch.near_count[env]):
-            if scratch.friction_normal[env, scratch.near_pairs[env, k]] > zero:
+            if scratch.friction_normal[env, k] > zero:
                 found = 1
         return found != 0
 

@@ -42,6 +42,7 @@ def build(t) -> SimpleNamespace:
     p_any, p_not_converged, p_non_finite = _P['any'], _P['not_converged'], _P['non_finite']
     p_aliased, p_dropped, p_failures = (_P['angle_aliased'], _P['torque_dropped'],
                                         _P['line_search_failures'])
+    p_full = _P['near_full']
 
     @wp.func
     def count_problem(state: State, chunk: int, column: int, present: int):
@@ -114,12 +115,13 @@ def build(t) -> SimpleNamespace:
                 state.joint_position[env, k] = wrap_angle(raw)
 
     @wp.func
-    def finish(model: Model, state: State, scratch: Scratch, env: int, bdf2: int):
-        """Commit or reject the step. Returns (finite, aliased, rejected)."""
+    def finish(model: Model, state: State, scratch: Scratch, env: int, bdf2: int, full: int):
+        """Commit or reject the step (``full`` ≠ 0: its near list outgrew its room). Returns
+        (finite, aliased, rejected)."""
         finite = candidate_velocities(model, state, scratch, env, bdf2)
         aliased = aliasing(model, state, scratch, env)
         rejected = int(0)
-        if finite == 0 or aliased != 0:
+        if finite == 0 or aliased != 0 or full != 0:
             rejected = 1
             for k in range(model.elim_order.shape[0]):
                 b = model.elim_order[k]
@@ -148,12 +150,13 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def write_stats(model: Model, state: State, scratch: Scratch, env: int, chunk: int,
                     iterations: int, halvings: int, converged: int, failures: int, aliased: int,
-                    dropped: int, finite: int, rejected: int, residual: scalar, inner: int,
-                    stalls: int, gap: scalar, strain: scalar):
+                    dropped: int, finite: int, rejected: int, full: int, residual: scalar,
+                    inner: int, stalls: int, gap: scalar, strain: scalar):
         """The step's statistics, addressed by the names of physics.host.fields (with contact: the
         smallest distance to a static thing and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
-        step's Newton status does not count: its state was not kept)."""
+        step's Newton status does not count: its state was not kept; a step whose near list
+        outgrew its room counts that alone: ``full``)."""
         state.stats_int[env, s_iterations] = iterations
         state.stats_int[env, s_halvings] = halvings
         state.stats_int[env, s_converged] = converged
@@ -180,11 +183,15 @@ def build(t) -> SimpleNamespace:
         failed = int(0)
         if failures != 0:
             failed = 1
-        problems = count_problem(state, chunk, p_not_converged, not_converged)
-        problems += count_problem(state, chunk, p_non_finite, 1 - finite)
-        problems += count_problem(state, chunk, p_aliased, aliased)
-        problems += count_problem(state, chunk, p_dropped, dropped)
-        problems += count_problem(state, chunk, p_failures, failed)
+        problems = int(0)
+        if full != 0:       # taken again with more room: that step counts its problems
+            problems = count_problem(state, chunk, p_full, 1)
+        else:
+            problems += count_problem(state, chunk, p_not_converged, not_converged)
+            problems += count_problem(state, chunk, p_non_finite, 1 - finite)
+            problems += count_problem(state, chunk, p_aliased, aliased)
+            problems += count_problem(state, chunk, p_dropped, dropped)
+            problems += count_problem(state, chunk, p_failures, failed)
         any_problem = int(0)
         if problems != 0:
             any_problem = 1

@@ -79,8 +79,8 @@ def build(t, poses, pair_contact=None) -> SimpleNamespace:
                 p = listed_pair(model, scratch, env, k)
                 first, second = pair_bodies(model, p)
                 if first == body or second == body:
-                    active, first, second, d, n, point, push, friction = pair_contact(
-                        model, state, scratch, env, p)
+                    p, active, first, second, d, n, point, push, friction = pair_contact(
+                        model, state, scratch, env, k)
                     if active:
                         f = push * n + friction
                         if first != body:
