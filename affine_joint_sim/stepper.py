@@ -416,6 +416,7 @@ class Stepper:
                       self._scratch.friction_normal, self._scratch.normal_damping,
                       self._scratch.near_full):
             array.zero_()
+        self._scratch.body_margin.fill_(-1.0)     # the first step gathers its near list
         self._list_near(h.body_q0)
         x0 = np.ascontiguousarray(np.broadcast_to(h.joint_initial_position,
                                                   (n, h.joint_count)))
@@ -538,6 +539,9 @@ class Stepper:
                 if b in (gap.body, gap.other):
                     lagged[env, k] = 0.0
             self._store(array, lagged)
+        margins = scratch.body_margin.numpy()
+        margins[env] = -1.0         # the next step gathers its near list anew
+        self._store(scratch.body_margin, margins)
         ready = state.history_ready.numpy()
         ready[env] = 0
         self._store(state.history_ready, ready)

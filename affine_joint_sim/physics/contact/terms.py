@@ -429,12 +429,14 @@ def build(t) -> SimpleNamespace:
         keeps the lagged values it had in the list near_pairs[0, old) (both ascending: one
         merge), a new one gets none, and the list moves to the front: only listed pairs hold
         lagged values. A list beyond the room (old + fresh > near_pairs' room) is not taken:
-        the old one stays and near_full says how many the room would need (the step is
-        rejected and taken again with more room, ``commit.finish``, ``Stepper``). Returns 1 if
-        the list was taken."""
+        the old one stays, near_full says how many the room would need (the step is
+        rejected and taken again with more room, ``commit.finish``, ``Stepper``) and the
+        margins are void (−1: that step gathers anew). Returns 1 if the list was taken."""
         taken = int(0)
         if old + fresh > scratch.near_pairs.shape[1]:
             scratch.near_full[env] = wp.max(scratch.near_full[env], old + fresh)
+            for b in range(scratch.body_margin.shape[1]):     # gathered again when retaken
+                scratch.body_margin[env, b] = -one
         else:
             taken = 1
             i = int(0)
@@ -453,27 +455,64 @@ def build(t) -> SimpleNamespace:
             scratch.near_count[env] = fresh
         return taken
 
+    @wp.func
+    def stale(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+              along: int):
+        """Whether a body's points, edges or faces may be farther from where they were when
+        the near list was gathered (scratch.q_listed) than its margin, at q or with ``along``
+        on the path q + α dq, α ∈ [0, 1] (dq: scratch.dq): ``motion`` of q − q_listed, plus
+        of dq along the path."""
+        out = int(0)
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            reach = motion(model, b, q[env, b] - scratch.q_listed[env, b])
+            if along != 0:
+                reach += motion(model, b, scratch.dq[env, b])
+            if reach > scratch.body_margin[env, b]:
+                out = 1
+        return out
+
+    @wp.func
+    def regather(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                 along: int):
+        """Gather the near list again at q_n (``relist``: the lagged values go with their
+        pairs), each body's margin twice its reach from q_n, the larger of the prediction
+        q̃'s and q's (with ``along``, of the path q + α dq: see ``stale``), at least d̂.
+        Returns 1 if the list was taken."""
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            q_n = scratch.q_n[env, b]
+            reach = motion(model, b, q[env, b] - q_n)
+            if along != 0:
+                reach += motion(model, b, scratch.dq[env, b])
+            reach = wp.max(reach, motion(model, b, scratch.q_tilde[env, b] - q_n))
+            scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * reach)
+            scratch.q_listed[env, b] = q_n
+        old = scratch.near_count[env]
+        return relist(scratch, env, old, gather(model, scratch, env, old))
+
+    @wp.func
+    def refresh_near(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                     along: int):
+        """The near list gathered again where it is ``stale`` at q (``regather``). Returns 1 if
+        the list holds the pairs (0: it outgrew its room, ``relist``)."""
+        taken = int(1)
+        if stale(model, q, scratch, env, along) != 0:
+            taken = regather(model, q, scratch, env, along)
+        return taken
+
+    refresh = apart(t, refresh_near)    # out of line: called by every step bound and the lag
+
     @wp.func(inline=INLINE)
     def cover(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
               along: int):
         """Keep every pair not listed beyond d̂ at q, or with ``along`` on the whole path
-        q + α dq, α ∈ [0, 1] (dq: scratch.dq): a body whose points, edges and faces may be
-        farther from where they were at q_n than its margin (``motion`` of q − q_n, plus of
-        dq along the path) gets twice that margin, and near_pairs is gathered again
-        (``relist``: the lagged values go with their pairs)."""
+        q + α dq, α ∈ [0, 1]: where a body may have moved beyond its margin (``stale``) the
+        list is gathered again (``regather``). Nothing while this step's list has outgrown
+        its room (near_full: the step is rejected)."""
         if pair_count(model) > 0:
-            wider = int(0)
-            for k in range(model.elim_order.shape[0]):
-                b = model.elim_order[k]
-                reach = motion(model, b, q[env, b] - scratch.q_n[env, b])
-                if along != 0:
-                    reach += motion(model, b, scratch.dq[env, b])
-                if reach > scratch.body_margin[env, b]:
-                    scratch.body_margin[env, b] = two * reach
-                    wider = 1
-            if wider != 0:
-                old = scratch.near_count[env]
-                relist(scratch, env, old, gather(model, scratch, env, old))
+            if scratch.near_full[env] == 0:
+                refresh(model, q, scratch, env, along)
 
     @wp.func
     def tangent_of(n: vec3):
@@ -561,8 +600,9 @@ def build(t) -> SimpleNamespace:
 
     @wp.func(inline=INLINE)
     def lag_friction(model: Model, state: State, scratch: Scratch, env: int):
-        """Gathers this step's near pairs (margins of twice each body's predicted ``motion``,
-        at least d̂), then freezes for the step, per pair closer than d̂ at q_n, the normal
+        """Gathers this step's near pairs where the last list may miss one (``stale`` at the
+        prediction q̃; margins of twice each body's predicted ``motion``, at least d̂:
+        ``regather``), then freezes for the step, per pair closer than d̂ at q_n, the normal
         force dt² λ into scratch.friction_normal (friction's weight: the barrier's
         −dt² db/dd plus the last step's damping force c (min(d_{n−1}, d̂) − d_n)/dt, at most
         as much again as the barrier's while the pair approached and never below 0 while it
@@ -577,14 +617,11 @@ def build(t) -> SimpleNamespace:
         # step's damping in its list: the last step's is kept beside it (damping_before)
         again = scratch.near_full[env] != 0
         scratch.near_full[env] = 0
-        for k in range(model.elim_order.shape[0]):
-            b = model.elim_order[k]
-            scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * motion(
-                model, b, scratch.q_tilde[env, b] - scratch.q_n[env, b]))
         old = scratch.near_count[env]
         arriving = int(-1)
         count = int(0)
-        if relist(scratch, env, old, gather(model, scratch, env, old)) != 0:
+        # the last list where it holds every pair the prediction may reach
+        if refresh(model, scratch.q_tilde, scratch, env, 0) != 0:
             arriving = 0
             count = scratch.near_count[env]
         else:       # not taken: the list holds the last step's damping (taken again: ``again``)

@@ -239,9 +239,9 @@ FIELDS = _fields('model', [
     ('joint_raw', 'scalar', EJ, 'rad | m', 'raw coordinate of each joint at the Newton result '
      '(joint_raw_coordinate), for the commit'),
     ('near_pairs', 'int32', ('env', 'near'), '-', 'the pairs evaluated this step, ascending '
-     '(the static ones first): those within d̂ + body_margin at q_n (both bodies\' margins for '
-     'a pair of bodies; the others stay beyond d̂); the list in [0, near_count), the room after '
-     'it for the next one'),
+     '(the static ones first): those within d̂ + body_margin at q_listed (both bodies\' '
+     'margins for a pair of bodies; the others stay beyond d̂); the list in [0, near_count), '
+     'the room after it for the next one'),
     ('near_count', 'int32', E, '-', 'how many near_pairs'),
     ('near_full', 'int32', E, '-', '0, or how many pairs a near list needed this step where '
      'they outgrew the room: the step is rejected and the Stepper grows the room'),
@@ -283,7 +283,9 @@ FIELDS = _fields('model', [
     ('cg_direction', 'vec12', EB, 'm, -', 'conjugate search direction'),
     ('cg_product', 'vec12', EB, 'J', 'H times the search direction'),
     ('body_margin', 'scalar', EB, 'm', 'how far a body\'s contact points, edges and faces may '
-     'move this step before near_pairs is gathered again'),
+     'move from where they were at q_listed before near_pairs is gathered again (−1: at the '
+     'next step)'),
+    ('q_listed', 'vec12', EB, 'm, -', 'q_n of the step that gathered near_pairs last'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])
