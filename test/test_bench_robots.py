@@ -38,7 +38,7 @@ def test_a_quick_run_writes_one_row_per_dt_with_every_step_converged(tmp_path):
     for row in rows:
         assert row['robot'] == 'arm6_gripper' and row['joints'] == '8'
         assert (row['unconverged'], row['rejected'], row['line_search_failures'],
-                row['limit_exits']) == ('0', '0', '0', '0')
+                row['limit_exits'], row['friction_problems']) == ('0', '0', '0', '0', '0')
         if mujoco_urdf.available():     # ours: 1.8e-7 at dt 1e-3; MuJoCo Euler: 6.5e-6
             assert float(row['error']) < float(row['euler_error'])
     text = (tmp_path / 'robots.md').read_text()

@@ -8,7 +8,9 @@ from the same pose under the same constant torques (gravity compensation plus a 
 ``reference_dt``. Per robot and dt: our µs per step and per control-loop step (set every
 torque, step, read the angles), Newton iterations, unconverged and rejected steps,
 line-search failures, joints that leave their limits where the reference does not, the real
-time factor, and the largest joint error over the run of ours, MuJoCo Euler and MuJoCo RK4.
+time factor, and the largest joint error over the run of ours, MuJoCo Euler and MuJoCo RK4;
+without joint friction in both (whatever the URDF says), and again with a Coulomb friction on
+every joint (``zoo.frictions``; MuJoCo's friction loss) against a reference with it.
 """
 
 import statistics
@@ -95,35 +97,52 @@ def _limit_exits(scene, ours: np.ndarray, reference: np.ndarray | None) -> int:
 
 
 def measure_robot(name: str, settings: Settings) -> list[dict]:
-    """One row per dt of ``settings`` for robot ``name`` (a zoo name or a URDF path)."""
+    """One row per dt of ``settings`` for robot ``name`` (a zoo name or a URDF path): without
+    joint friction in both simulators (whatever the URDF says), and again with friction
+    (``zoo.frictions``, MuJoCo's friction loss) against a reference with that friction."""
     from affine_joint_sim.bench import mujoco_urdf, zoo
 
     finest = min(settings.dts)
     samples = round(settings.duration / finest)
     scenes, torques = zoo.load(name, settings.dts)
-    peer = reference = None
+    kinds = {'': np.zeros(len(torques)), 'friction_': zoo.frictions(scenes[finest])}
+    peers = {}
     if mujoco_urdf.available():
-        peer = mujoco_urdf.MujocoRobot(zoo.urdf_path(name), scenes[finest])
-        reference = peer.run(torques, settings.reference_dt, 'rk4',
-                                round(settings.duration / settings.reference_dt),
-                                every=round(finest / settings.reference_dt))
+        for kind, friction in kinds.items():
+            peer = mujoco_urdf.MujocoRobot(zoo.urdf_path(name), scenes[finest],
+                                           friction if kind else None)
+            peers[kind] = peer, peer.run(torques, settings.reference_dt, 'rk4',
+                                         round(settings.duration / settings.reference_dt),
+                                         every=round(finest / settings.reference_dt))
     rows = []
     for dt, scene in scenes.items():
         steps = round(settings.duration / dt)
         every = round(dt / finest)
-        truth = None if reference is None else reference[every - 1:samples:every]
-        ours, contestants = _ours(scene, torques, steps)
-        row = {'robot': Path(name).stem, 'joints': len(scene.joints), 'dt': dt,
-               **{key: value for key, value in ours.items() if key != 'angles'}}
-        if peer is not None:
-            row['error'] = float(np.abs(ours['angles'] - truth).max())
-            for integrator in ('euler', 'rk4'):
-                coordinates = peer.run(torques, dt, integrator, steps)
-                row[f'{integrator}_error'] = float(np.abs(coordinates - truth).max())
-                contestants[integrator] = peer.timer(torques, dt, integrator)
+        row = {'robot': Path(name).stem, 'joints': len(scene.joints), 'dt': dt}
+        contestants, plain = {}, None
+        for kind, friction in kinds.items():
+            ours, timed = _ours(zoo.with_friction(scene, friction), torques, steps)
+            if kind:
+                contestants['friction'] = timed['ours']
+                row['friction_problems'] = (ours['unconverged'] + ours['rejected']
+                                            + ours['line_search_failures'])
+            else:
+                contestants.update(timed)
+                plain = ours
+                row.update({key: value for key, value in ours.items() if key != 'angles'})
+            if kind in peers:
+                peer, reference = peers[kind]
+                truth = reference[every - 1:samples:every]
+                row[f'{kind}error'] = float(np.abs(ours['angles'] - truth).max())
+                for integrator in ('euler', 'rk4') if not kind else ('euler',):
+                    coordinates = peer.run(torques, dt, integrator, steps)
+                    row[f'{kind}{integrator}_error'] = float(np.abs(coordinates - truth).max())
+                    if not kind:
+                        contestants[integrator] = peer.timer(torques, dt, integrator)
         row.update(_timings(contestants, steps, settings.repeats))
         row['us_per_step'] = row.pop('ours_us')
-        row['limit_exits'] = _limit_exits(scene, ours['angles'], truth)
+        truth = peers[''][1][every - 1:samples:every] if peers else None
+        row['limit_exits'] = _limit_exits(scene, plain['angles'], truth)
         row['realtime'] = dt / (row['us_per_step'] * 1e-6)
         rows.append(row)
     return rows
@@ -139,7 +158,11 @@ COLUMNS = [
     Column('line_search_failures', 'LS failures'), Column('limit_exits', 'limit exits'),
     Column('realtime', '× real time', '{:.1f}'),
     Column('error', 'max error ours', '{:.2e}'), Column('euler_error', 'Euler', '{:.2e}'),
-    Column('rk4_error', 'RK4', '{:.2e}')]
+    Column('rk4_error', 'RK4', '{:.2e}'),
+    Column('friction_us', 'with friction: µs/step', '{:.0f}'),
+    Column('friction_problems', 'unconverged, rejected, LS failures'),
+    Column('friction_error', 'max error ours', '{:.2e}'),
+    Column('friction_euler_error', 'Euler', '{:.2e}')]
 
 
 def run(results: Path, devices: list[str], settings: Settings, names=()) -> None:
@@ -168,7 +191,12 @@ def run(results: Path, devices: list[str], settings: Settings, names=()) -> None
             'over every step and joint [rad | m]. µs: median of '
             f'{settings.repeats} runs of up to {TIMED_STEPS} steps on one core, ours and '
             "MuJoCo's timed in turn; × Euler: the median of the ratios of runs timed together; "
-            'loop: set_torques + step + angles.\n\n' + markdown_table(rows, COLUMNS) + '\n')
+            'loop: set_torques + step + angles. Without joint friction in both simulators '
+            '(whatever the URDF says); with friction: each joint\'s Coulomb friction '
+            f'{zoo.FRICTION_SHARE:g} of its push |(M(q0) a)_k|, a = {zoo.PUSH:g} on every joint, '
+            'ours and MuJoCo\'s '
+            'friction loss, against MuJoCo RK4 with that friction.\n\n'
+            + markdown_table(rows, COLUMNS) + '\n')
     publish(results, 'robots', text, rows)
 
 

@@ -15,10 +15,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ['ROBOTS', 'MARGIN', 'PUSH', 'ZooError', 'Robot', 'installed', 'urdf_path', 'load']
+__all__ = ['ROBOTS', 'MARGIN', 'PUSH', 'FRICTION_SHARE', 'ZooError', 'Robot', 'installed',
+           'urdf_path', 'load', 'frictions', 'with_friction']
 
 MARGIN = 0.1     # of each limited joint's range kept free on either side of the pose
 PUSH = 0.1       # rad/s² (revolute) or m/s² (prismatic) added to gravity compensation
+FRICTION_SHARE = 0.5    # joint friction of the friction runs: this share of each joint's push
 
 
 class Robot(NamedTuple):
@@ -97,3 +99,21 @@ def _inside(limit) -> float:
         return 0.0
     margin = MARGIN * (limit.upper - limit.lower)
     return min(max(0.0, limit.lower + margin), limit.upper - margin)
+
+
+def frictions(scene) -> np.ndarray:
+    """Coulomb friction per scene joint [N·m | N] of the friction runs: FRICTION_SHARE of the
+    joint's share of the push, |M(q0) PUSH|, so that every joint still slides (at about half
+    the push) and friction acts throughout."""
+    from affine_joint_sim.bench.references import RigidTree
+
+    start = np.array([j.initial_position for j in scene.joints])
+    push = RigidTree(scene).mass_matrix(start) @ np.full(len(start), PUSH)
+    return FRICTION_SHARE * np.abs(push)
+
+
+def with_friction(scene, friction):
+    """``scene`` with joint k's Coulomb friction ``friction[k]`` (0: none, whatever its URDF
+    says)."""
+    joints = [j.model_copy(update={'friction': float(f)}) for j, f in zip(scene.joints, friction)]
+    return scene.model_copy(update={'joints': joints})
