@@ -24,6 +24,8 @@ def test_a_quick_run_writes_every_scene_and_nothing_interpenetrates(tmp_path):
     for row in rows:
         assert float(row['min_distance']) > 0.0, row['scene']
         assert float(row['newton']) >= 1.0
+        assert row['vs_mujoco'] == ('' if row['mujoco_us'] == '' else
+                                    f"{float(row['us_per_step']) / float(row['mujoco_us'])!r}")
         assert (row['mujoco_us'] != '') == (mujoco_urdf.available()
                                             and row['scene'] != 'gripper')
     errors = {r['scene']: float(r['error']) for r in rows if r['error']}

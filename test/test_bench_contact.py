@@ -47,5 +47,6 @@ def test_without_mujoco_its_columns_are_empty(tmp_path, monkeypatch):
     assert len(rows) == len(contact.CASES) - 1            # no quadruped at no dt
     for row in rows:
         assert row['mujoco_us'] == row['mujoco'] == row['mujoco_min_distance'] == ''
+        assert row['vs_mujoco'] == ''
         assert float(row['min_distance']) > 0.0
     assert 'MuJoCo is not installed' in (tmp_path / 'contact.md').read_text()

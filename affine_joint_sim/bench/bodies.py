@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from affine_joint_sim.bench import grasp
-from affine_joint_sim.bench.report import Column, markdown_table, publish
+from affine_joint_sim.bench.report import Column, markdown_table, publish, times
 from affine_joint_sim.bench.section import add_section
 
 __all__ = ['FULL', 'QUICK', 'Settings', 'add_parser', 'box', 'collision_scene', 'gripper_scene',
@@ -232,6 +232,7 @@ COLUMNS = [
     Column('us_per_step', 'µs/step', '{:.0f}'),
     Column('realtime', '× real time', '{:.1f}'),
     Column('mujoco_us', 'MuJoCo µs', '{:.0f}'),
+    Column('vs_mujoco', '× MuJoCo', '{:.1f}'),
     Column('newton', 'Newton it.', '{:.2f}'),
     Column('inner', 'inner it.', '{:.1f}'),
     Column('contacts', 'contacts'),
@@ -290,6 +291,8 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
             row.update(theirs[-1], mujoco_us=statistics.median(r['mujoco_us'] for r in theirs))
         rows.append(row)
     rows.append(_arm_grasp(settings.repeats, peer))
+    for row in rows:
+        row['vs_mujoco'] = times(row['us_per_step'], row['mujoco_us'])
     fit = growth(rows)
     text = ('## Bodies touching each other: float64, one CPU core\n\n'
             + ('' if peer else "MuJoCo is not installed (extra 'compare'): no MuJoCo "

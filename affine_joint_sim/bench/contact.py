@@ -31,7 +31,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from affine_joint_sim.bench.report import Column, markdown_table, publish, write_csv
+from affine_joint_sim.bench.report import Column, markdown_table, publish, times, write_csv
 from affine_joint_sim.bench.section import add_section
 
 __all__ = ['CASES', 'FULL', 'QUICK', 'Settings', 'add_parser', 'measure', 'ratios', 'run']
@@ -332,6 +332,7 @@ def measure(case: Case, dt: float, settings: Settings) -> dict:
     if row['mujoco_min_distance'] == math.inf:
         row['mujoco_min_distance'] = None
     row['realtime'] = dt / (row['us_per_step'] * 1e-6)
+    row['vs_mujoco'] = times(row['us_per_step'], row['mujoco_us'])
     return row
 
 
@@ -369,6 +370,7 @@ def ratios(settings: Settings) -> list[dict]:
 COLUMNS = [
     Column('scene', 'scene'), Column('dt', 'dt [s]', '{:g}'),
     Column('us_per_step', 'µs/step', '{:.0f}'), Column('mujoco_us', 'MuJoCo µs', '{:.1f}'),
+    Column('vs_mujoco', '× MuJoCo', '{:.1f}'),
     Column('newton_iterations', 'Newton it.', '{:.2f}'),
     Column('unconverged', 'unconverged'), Column('rejected', 'rejected'),
     Column('quantity', 'quantity'), Column('exact', 'exact', '{:.4g}'),

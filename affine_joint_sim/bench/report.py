@@ -7,7 +7,8 @@ import csv
 from pathlib import Path
 from typing import NamedTuple
 
-__all__ = ['Column', 'loglog_plot', 'markdown_row', 'markdown_table', 'publish', 'write_csv']
+__all__ = ['Column', 'loglog_plot', 'markdown_row', 'markdown_table', 'publish', 'times',
+           'write_csv']
 
 
 class Column(NamedTuple):
@@ -20,6 +21,11 @@ class Column(NamedTuple):
     def cell(self, row: dict) -> str:
         value = row.get(self.key)
         return '—' if value is None else self.fmt.format(value)
+
+
+def times(ours: float, theirs: float | None) -> float | None:
+    """How many times ``theirs`` ``ours`` is (a cost over a peer's), None without the peer."""
+    return None if theirs is None else ours / theirs
 
 
 def markdown_row(row: dict, columns: list[Column]) -> str:
