@@ -440,12 +440,11 @@ class Stepper:
     def _retake(self, counts: np.ndarray) -> np.ndarray:
         """Take again, with more room, the step of every environment whose near list outgrew
         its room (``scratch.near_full``: that step was rejected before it changed anything
-        but its list; grown and taken again until none does). Returns the step's problem
-        counts (``counts``: those of the launch) with the steps taken again in place of the
-        rejected ones. Taken again from the start of the step's contact stage, a step has the
-        bits it would have had with the room from the start; one whose list outgrew the room
-        only in Newton's search carries this step's contact damping, not the last one's, into
-        friction's lagged load."""
+        but its list and lagged values; grown and taken again until none does). Returns the
+        step's problem counts (``counts``: those of the launch) with the steps taken again in
+        place of the rejected ones. A step taken again has the bits it would have had with the
+        room from the start (where its list outgrew the room in Newton's search, its lagging
+        reads the last step's damping from ``damping_before``: test/test_near_list.py)."""
         while counts[_NEAR_FULL] != 0:
             full = self._scratch.near_full.numpy()
             self._grow_near(int(full.max()))
