@@ -23,7 +23,8 @@ import warp as wp
 from affine_joint_sim.physics.host.energy import mechanical_energy
 from affine_joint_sim.physics.host.fields import (CONTACT_STATS, COUPLED_STATS, PROBLEM_COLUMNS,
                                                   STAT_FLOAT_NAMES, STAT_INT_NAMES, allocate,
-                                                  array_sizes, device_model, held_structs)
+                                                  array_sizes, device_model, fields_of,
+                                                  held_structs)
 from affine_joint_sim.physics.stages.frames import FRAME_COLUMNS, POSE_COLUMNS
 from affine_joint_sim.physics.contact.report import REPORT_COLUMNS, REPORT_ROOM
 from affine_joint_sim.physics.host.joint_kinds import joint_kind
@@ -58,6 +59,8 @@ _PROBLEMS = {      # by physics.host.fields.PROBLEM_NAMES
 # the column of steps whose near list outgrew its room: taken again at once (Stepper._retake),
 # not a problem a user sees
 _NEAR_FULL = PROBLEM_COLUMNS.index('near_full')
+# the Scratch arrays sized by the near lists' room (physics.host.fields ``near``): grown together
+_NEAR_ARRAYS = tuple(f.name for f in fields_of('scratch') if 'near' in f.shape)
 _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_rejected')
 # Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU
 # (State arrays, and the Scratch ones the contact report needs).
@@ -473,11 +476,11 @@ class Stepper:
             return
         self._near_room = room
         scratch = self._scratch
-        for name in ('near_pairs', 'friction_normal', 'normal_damping', 'damping_release',
-                     'damping_before'):
+        for name in _NEAR_ARRAYS:
             old = getattr(scratch, name)
-            rows = np.zeros((old.shape[0], 2 * room), dtype=old.numpy().dtype)
-            rows[:, :old.shape[1]] = old.numpy()
+            kept = old.numpy()
+            rows = np.zeros((old.shape[0], 2 * room), dtype=kept.dtype)
+            rows[:, :old.shape[1]] = kept
             setattr(scratch, name, wp.array(rows, dtype=old.dtype, device=self.device))
         self._held = held_structs(self._k, self.device, model=self._model, state=self._state,
                                   control=self._control, scratch=scratch)

@@ -119,7 +119,7 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
         steps = round(settings.duration / dt)
         every = round(dt / finest)
         row = {'robot': Path(name).stem, 'joints': len(scene.joints), 'dt': dt}
-        contestants, plain = {}, None
+        contestants, plain, plain_truth = {}, None, None
         for kind, friction in kinds.items():
             ours, timed = _ours(zoo.with_friction(scene, friction), torques, steps)
             if kind:
@@ -133,6 +133,8 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
             if kind in peers:
                 peer, reference = peers[kind]
                 truth = reference[every - 1:samples:every]
+                if not kind:
+                    plain_truth = truth
                 row[f'{kind}error'] = float(np.abs(ours['angles'] - truth).max())
                 for integrator in ('euler', 'rk4') if not kind else ('euler',):
                     coordinates = peer.run(torques, dt, integrator, steps)
@@ -141,8 +143,7 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
                         contestants[integrator] = peer.timer(torques, dt, integrator)
         row.update(_timings(contestants, steps, settings.repeats))
         row['us_per_step'] = row.pop('ours_us')
-        truth = peers[''][1][every - 1:samples:every] if peers else None
-        row['limit_exits'] = _limit_exits(scene, plain['angles'], truth)
+        row['limit_exits'] = _limit_exits(scene, plain['angles'], plain_truth)
         row['realtime'] = dt / (row['us_per_step'] * 1e-6)
         rows.append(row)
     return rows
