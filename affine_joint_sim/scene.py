@@ -21,8 +21,9 @@ from affine_joint_sim.schema_base import (Number, OneOf, PositiveFloat, StrictMo
                                           not_a_boolean)
 
 __all__ = ['Scene', 'SceneSettings', 'SceneError', 'StrictModel', 'Body', 'Joint', 'Limit',
-           'Drive', 'Shape', 'Solver', 'Orientation', 'Frame', 'Visual', 'Geometry', 'Mesh',
-           'Sensor', 'SENSOR_TYPES', 'looks_like_urdf', 'topic_token', 'validation_report']
+           'Drive', 'Mimic', 'Shape', 'Solver', 'Orientation', 'Frame', 'Visual', 'Geometry',
+           'Mesh', 'Sensor', 'SENSOR_TYPES', 'looks_like_urdf', 'topic_token',
+           'validation_report']
 
 # Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
 # names use topic_token(name).
@@ -214,6 +215,18 @@ class Drive(StrictModel):
     enabled: bool = True
 
 
+class Mimic(StrictModel):
+    """A mimic joint's coupling (URDF ``<mimic>``): its coordinate follows x = multiplier ·
+    x_leader + offset [rad | m] through a spring K/2 (x − multiplier x_leader − offset)² inside
+    the implicit step, K = strength_ratio (m_P + m_C) of the follower's bodies (physical
+    stiffness K/dt², like a joint's). The follower takes no commands."""
+
+    joint: Name
+    multiplier: Number = 1.0
+    offset: Number = 0.0
+    strength_ratio: PositiveFloat = 1000.0
+
+
 class Joint(StrictModel):
     """A joint: ``revolute`` (UID 18, torque UID 668), ``prismatic`` (UID 20, force UID 667)
     or ``fixed`` (UID 25). ``torque`` is N·m for revolute and N for prismatic joints.
@@ -238,6 +251,7 @@ class Joint(StrictModel):
     friction: Annotated[Number, Field(ge=0.0)] = 0.0     # Coulomb friction [N·m | N]
     drive: Drive | None = None
     initial_position: Number = 0.0
+    mimic: Mimic | None = None
 
     @model_validator(mode='after')
     def _keys_of_type(self):
@@ -261,6 +275,11 @@ class Joint(StrictModel):
             extra = sorted(given & {'torque_model', 'angle_mode'})
             if extra:
                 raise ValueError(f'{", ".join(extra)} applies to revolute joints only')
+        if self.mimic is not None:
+            commanded = sorted(given & {'torque', 'drive'})
+            if commanded:
+                raise ValueError(f'a mimic joint follows joint {self.mimic.joint!r}: it takes no '
+                                 f'{" or ".join(commanded)}')
         limit = self.limit
         if limit is not None and not limit.lower <= self.initial_position <= limit.upper:
             # a limit entered that deep rejects every step: the joint would never move
@@ -270,7 +289,7 @@ class Joint(StrictModel):
 
 
 _MOVABLE_KEYS = {'x0', 'x1', 'torque', 'enabled', 'torque_model', 'angle_mode', 'effort_limit',
-                 'limit', 'damping', 'friction', 'drive', 'initial_position'}
+                 'limit', 'damping', 'friction', 'drive', 'initial_position', 'mimic'}
 
 
 NEWTON_MAX_ITER = 32             # Newton iterations per step at most, by default
@@ -454,6 +473,7 @@ class Scene(SceneSettings):
             if joint.x0 is not None and math.dist(joint.x0, joint.x1) < 1e-9:
                 problems.append((f'joints[{i}].x1', 'x1 must differ from x0 (the axis is x1 - x0)'))
         problems += _token_clashes([j.name for j in self.joints])
+        problems += self._mimic_problems()
         problems += _duplicates('frames', [f.name for f in self.frames])
         frame_names = [f.name for f in self.frames]
         for i, frame in enumerate(self.frames):
@@ -473,6 +493,30 @@ class Scene(SceneSettings):
                                      f'{valid}'))
         if not problems:
             problems += self._closed_loops()
+        return problems
+
+    def _mimic_problems(self) -> list[tuple[str, str]]:
+        """Mimics: each follows another movable joint, and no chain of them closes a loop."""
+        problems = []
+        kinds = {j.name: joint_kind(j.type) for j in self.joints}
+        leader = {j.name: j.mimic.joint for j in self.joints if j.mimic is not None}
+        for i, joint in enumerate(self.joints):
+            if joint.mimic is None:
+                continue
+            name = joint.mimic.joint
+            movable = [j for j, kind in kinds.items() if kind.takes_axis and j != joint.name]
+            if name not in kinds or name == joint.name or not kinds[name].takes_axis:
+                problems.append((f'joints[{i}].mimic.joint', f'{name!r} is not another revolute '
+                                 f'or prismatic joint; valid: {", ".join(movable)}'))
+                continue
+            seen, at = {joint.name}, name
+            while at in leader and at not in seen:
+                seen.add(at)
+                at = leader[at]
+            if at in seen:
+                problems.append((f'joints[{i}].mimic.joint', f'the mimics from '
+                                 f'{joint.name!r} through {name!r} form a loop: one joint of a '
+                                 'chain must move on its own'))
         return problems
 
     def _sensor_problems(self) -> list[tuple[str, str]]:

@@ -89,6 +89,11 @@ def _stat_layout(host) -> tuple[list[str], itemgetter]:
     return [every[c] for c in columns], itemgetter(*columns)
 
 
+def _commanded(joint) -> bool:
+    """Whether a joint takes a torque or force command: not a weld, not a mimic."""
+    return joint_kind(joint.type).command is not None and joint.mimic is None
+
+
 def _has_drive(joint) -> bool:
     """Whether a scene joint has a drive (takes a position target)."""
     return joint.drive is not None
@@ -156,8 +161,8 @@ class Stepper:
         # a joint's index by name, and the joints that take a command: a control loop sets
         # torques by name every step, so these are looked up, not searched
         self._index_of = {joint.name: k for k, joint in enumerate(scene.joints)}
-        self._commanded = np.array([k for k, j in enumerate(scene.joints)
-                                    if joint_kind(j.type).command is not None], dtype=np.intp)
+        self._commanded = np.array([k for k, j in enumerate(scene.joints) if _commanded(j)],
+                                   dtype=np.intp)
         self._command_columns = _columns(self._commanded)
         # finite bounds (an unlimited joint's the largest float), so that |±Inf| fails the
         # one comparison set_torques makes when every value is fine
@@ -237,7 +242,8 @@ class Stepper:
 
     @property
     def command_joint_names(self) -> list[str]:
-        """The joints that take a torque or force command (every joint but welds)."""
+        """The joints that take a torque or force command (every joint but welds and mimic
+        joints)."""
         return [self.scene.joints[k].name for k in self.command_joint_index]
 
     @property
@@ -429,7 +435,7 @@ class Stepper:
         self._warned = set()
         self._velocity_target[:] = 0.0     # no commanded speeds (uploaded below on a GPU)
         for k, joint in enumerate(self.scene.joints):
-            if joint_kind(joint.type).command is not None:
+            if _commanded(joint):
                 self.set_torque(joint.name, joint.torque)
                 self.set_enabled(joint.name, joint.enabled)
             if joint.drive is not None:
@@ -990,8 +996,10 @@ class Stepper:
     def _movable(self, name) -> int:
         k = self._joint(name)
         if k not in self._commanded:
-            raise ValueError(f'joint {name!r} is {self.scene.joints[k].type}: it takes no torque '
-                             'or force')
+            joint = self.scene.joints[k]
+            what = (f'a mimic of {joint.mimic.joint!r}' if joint.mimic is not None
+                    else joint.type)
+            raise ValueError(f'joint {name!r} is {what}: it takes no torque or force')
         return k
 
     def _per_env(self, name, value, dtype) -> np.ndarray:

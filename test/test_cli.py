@@ -74,14 +74,14 @@ def test_a_robot_load_says_one_summary_line_and_verbose_says_each_item(tmp_path)
     robot = (REPO / 'msg_configs' / 'robots' / 'arm6.urdf').read_text()
     for limits in ('lower="-3.1" upper="3.1"', 'lower="-2.0" upper="2.0"'):
         robot = robot.replace(f'<limit {limits}', '<limit lower="0" upper="0"', 1)
-    robot = robot.replace('friction="0"/>', 'friction="0"/><mimic joint="elbow"/>', 1)
+    robot = robot.replace('<limit lower="-2.6" upper="2.6"', '<limit lower="0.5" upper="2.6"', 1)
     (tmp_path / 'locked.urdf').write_text(robot)
     quiet = cli('run', '--scene', tmp_path / 'locked.urdf', '--mode', 'fast', '--duration', 0.02)
     assert quiet.returncode == 0, quiet.stderr
     said = [line for line in quiet.stderr.splitlines() if 'locked.urdf' in line]
-    assert said == ['SimulationWarning: locked.urdf: mimic joints not modelled (they move on '
-                    'their own): 1; joints locked by lower = upper: 2 (each one: run --verbose, '
-                    'or show SimulationDetail warnings)'], \
+    assert said == ['SimulationWarning: locked.urdf: joints starting at a limit (zero outside '
+                    "their limits): 1 (worst: 'elbow' 0.5 rad); joints locked by lower = upper: "
+                    '2 (each one: run --verbose, or show SimulationDetail warnings)'], \
         quiet.stderr
     verbose = cli('run', '--scene', tmp_path / 'locked.urdf', '--mode', 'fast', '--duration',
                   0.02, '--verbose')
@@ -89,7 +89,7 @@ def test_a_robot_load_says_one_summary_line_and_verbose_says_each_item(tmp_path)
     details = [line for line in verbose.stderr.splitlines()
                if line.startswith('SimulationDetail: ')]
     assert len(details) == 3, verbose.stderr
-    assert "joint 'shoulder_pan' mimics 'elbow': mimic is not modelled" in details[0]
+    assert "joint 'elbow' starts at its lower limit 0.5 rad" in details[0]
     assert "joint 'shoulder_pan' (revolute) has lower = upper = 0" in details[1]
     assert "joint 'shoulder_lift' (revolute) has lower = upper = 0" in details[2]
     assert said[0] in verbose.stderr

@@ -12,7 +12,7 @@ from test_joints import every_joint_type
 SIZES = {'env': 3, 'chunk': 2, 'body': 5, 'free': 4, 'joint': 3, 'stat_int': 8, 'stat_float': 3,
          'problem': 6, 'point': 6, 'plane': 2, 'pair': 12, 'edge': 4, 'face': 2,
          'static_edge': 3, 'static_vertex': 2, 'surface': 1, 'near': 16, 'static_pair': 10,
-         'touch': 2, 'body_end': 6}
+         'touch': 2, 'body_end': 6, 'mimic': 2, 'mimic_body': 10, 'mimic_square': 4}
 
 
 @pytest.mark.parametrize('scalar', [wp.float64, wp.float32])
@@ -44,7 +44,8 @@ def test_the_host_model_carries_exactly_the_model_fields_with_their_shapes():
     sizes = dict(SIZES, body=len(scene.bodies), joint=len(scene.joints),
                  free=int(np.sum(host.body_fixed == 0)), point=0, plane=0, shape=0,
                  pair=0, edge=0, face=0, static_edge=0, static_vertex=0, surface=0, static_pair=0,
-                 touch=0, touch_end=1, body_end=len(scene.bodies) + 1)  # no contact
+                 touch=0, touch_end=1, body_end=len(scene.bodies) + 1,  # no contact
+                 mimic=0)
     for f in fields_of('model'):
         value = np.asarray(getattr(host, f.name))
         trailing = {'vec3': (3,), 'mat33': (3, 3), 'vec12': (12,),

@@ -60,7 +60,7 @@ def test_no_items_no_summary_and_an_error_inside_still_says_them():
 
 def test_by_default_python_shows_the_summary_and_not_the_details(tmp_path):
     robot = (REPO / 'msg_configs' / 'robots' / 'arm6.urdf').read_text().replace(
-        'friction="0"/>', 'friction="0"/><mimic joint="elbow"/>')
+        'lower="-3.0" upper="3.0"', 'lower="0.5" upper="3.0"')
     (tmp_path / 'rubbing.urdf').write_text(robot)
     load = 'import sys; from affine_joint_sim import Scene; Scene.from_urdf(sys.argv[1])'
     done = subprocess.run([sys.executable, '-c', load, tmp_path / 'rubbing.urdf'],
@@ -68,6 +68,6 @@ def test_by_default_python_shows_the_summary_and_not_the_details(tmp_path):
     assert done.returncode == 0, done.stderr
     shown = [line for line in done.stderr.splitlines() if 'Warning: ' in line]
     assert len(shown) == 1, done.stderr
-    assert ('SimulationWarning: rubbing.urdf: mimic joints not modelled (they move on their '
-            'own): 6') in shown[0]
+    assert ('SimulationWarning: rubbing.urdf: joints starting at a limit (zero outside their '
+            'limits): 3') in shown[0]
     assert 'SimulationDetail:' not in done.stderr and "'shoulder_lift'" not in done.stderr

@@ -548,15 +548,6 @@ def test_an_unreadable_file_is_an_error(tmp_path):
         Scene.from_urdf(tmp_path / 'missing.urdf')
 
 
-def test_unmodelled_joint_features_are_warnings(tmp_path):
-    scene, said = warnings_of(tmp_path, robot(
-        '<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm') + ARM
-        + joint('twin', 'continuous', 'arm', 'arm2', extra='<mimic joint="hinge"/>')
-        + '<link name="arm2">' + inertial() + '</link>'))
-    assert any("joint 'twin'" in m and "mimics 'hinge': mimic is not modelled" in m
-               for m in said), said
-
-
 def test_dynamics_damping_and_friction_become_the_joint_terms(tmp_path):
     scene, said = warnings_of(tmp_path, robot(
         '<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm',
@@ -589,13 +580,6 @@ def test_an_undefined_world_parent_is_the_world_and_infinite_bounds_no_limit(tmp
         'world' in said[0], said
     assert scene.bodies[0].fixed and scene.joints[0].limit is None
     assert scene.joints[0].effort_limit == 3.0
-
-
-def test_a_mimic_of_a_missing_joint_is_said(tmp_path):
-    scene, said = warnings_of(tmp_path, robot(
-        '<link name="base"/>' + joint('hinge', 'continuous', 'base', 'arm',
-                                      extra='<mimic joint="ghost"/>') + ARM))
-    assert any("mimics 'ghost' (no joint of that name exists)" in m for m in said), said
 
 
 def test_a_floating_joint_leaves_its_child_free(tmp_path):

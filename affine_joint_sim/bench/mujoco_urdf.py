@@ -2,8 +2,8 @@
 ``bench robots``. Not a section itself.
 
 MuJoCo reads the URDF itself, with its visuals and collisions stripped (meshes are never
-needed); contacts and equality constraints are off (MuJoCo turns a URDF ``<mimic>`` into an
-equality, which this project does not model) and each joint's friction loss is the one given
+needed); contacts are off, a URDF ``<mimic>`` is MuJoCo's joint equality (as hard as MuJoCo
+allows, as our coupling is stiff), and each joint's friction loss is the one given
 (none by default, whatever the URDF says), so both simulators see the same rigid tree, URDF
 damping as joint damping, the same joint friction (MuJoCo's friction loss as hard as it
 allows: on arm6_gripper an independent rigid-body RK4 with exact Coulomb friction agrees
@@ -17,9 +17,9 @@ import re
 
 import numpy as np
 
-__all__ = ['HARD_FRICTION', 'available', 'MujocoRobot']
+__all__ = ['HARD', 'available', 'MujocoRobot']
 
-HARD_FRICTION = 1e-9    # s: friction loss's solref time constant (MuJoCo raises it to 2 dt)
+HARD = 1e-9    # s: friction loss's and equalities' solref time constant (MuJoCo raises it to 2 dt)
 
 _STRIP = re.compile(r'<(visual|collision)\b.*?</\1>|<(visual|collision)\b[^>]*/>', re.S)
 
@@ -46,7 +46,8 @@ class MujocoRobot:
                       r'fusestatic="false" balanceinertia="false"/></mujoco>', text, count=1)
         self.model = model = mujoco.MjModel.from_xml_string(text)
         flags = mujoco.mjtDisableBit
-        model.opt.disableflags |= flags.mjDSBL_CONTACT | flags.mjDSBL_EQUALITY
+        model.opt.disableflags |= flags.mjDSBL_CONTACT
+        model.eq_solref[:, 0] = HARD        # the mimics' equalities
         model.opt.gravity[:] = scene.gravity
         names = [model.joint(i).name for i in range(model.njnt)]
         joints = [names.index(j.name) for j in scene.joints]
@@ -58,7 +59,7 @@ class MujocoRobot:
             # as hard as MuJoCo allows: its time constant is raised to two steps (refsafe);
             # at the default 0.02 s the friction loss of a slowly sliding joint is a fraction
             # of its Coulomb force (an arm's joint slid 2.8 times as far in 0.5 s)
-            model.dof_solref[self.dof, 0] = HARD_FRICTION
+            model.dof_solref[self.dof, 0] = HARD
         self.start = np.array([j.initial_position for j in scene.joints])
 
     def _start(self, torques, dt: float, integrator: str):

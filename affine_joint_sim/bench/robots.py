@@ -8,7 +8,9 @@ from the same pose under the same constant torques (gravity compensation plus a 
 ``reference_dt``. Per robot and dt: our µs per step and per control-loop step (set every
 torque, step, read the angles), Newton iterations, unconverged and rejected steps,
 line-search failures, joints that leave their limits where the reference does not, the real
-time factor, and the largest joint error over the run of ours, MuJoCo Euler and MuJoCo RK4;
+time factor, the largest joint error over the run of ours, MuJoCo Euler and MuJoCo RK4, and
+where the robot has mimic joints (the Panda's second finger) the largest departure from their
+rule, ours and MuJoCo Euler's (its equality);
 without joint friction in both (whatever the URDF says), and again with a Coulomb friction on
 every joint (``zoo.frictions``; MuJoCo's friction loss) against a reference with it.
 """
@@ -96,6 +98,14 @@ def _limit_exits(scene, ours: np.ndarray, reference: np.ndarray | None) -> int:
     return int((outside(ours) & inside).sum())
 
 
+def mimic_gap(scene, angles: np.ndarray) -> float | None:
+    """The largest |x_f − m x_l − o| [rad | m] over ``angles`` (steps × scene joints) and the
+    scene's mimic joints; None without any."""
+    gaps = [np.abs(angles[:, k] - j.mimic.multiplier * angles[:, scene.joint_index(j.mimic.joint)]
+                   - j.mimic.offset).max() for k, j in enumerate(scene.joints) if j.mimic]
+    return float(max(gaps)) if gaps else None
+
+
 def measure_robot(name: str, settings: Settings) -> list[dict]:
     """One row per dt of ``settings`` for robot ``name`` (a zoo name or a URDF path): without
     joint friction in both simulators (whatever the URDF says), and again with friction
@@ -130,6 +140,7 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
                 contestants.update(timed)
                 plain = ours
                 row.update({key: value for key, value in ours.items() if key != 'angles'})
+                row['mimic_gap'] = mimic_gap(scene, ours['angles'])
             if kind in peers:
                 peer, reference = peers[kind]
                 truth = reference[every - 1:samples:every]
@@ -139,6 +150,8 @@ def measure_robot(name: str, settings: Settings) -> list[dict]:
                 for integrator in ('euler', 'rk4') if not kind else ('euler',):
                     coordinates = peer.run(torques, dt, integrator, steps)
                     row[f'{kind}{integrator}_error'] = float(np.abs(coordinates - truth).max())
+                    if not kind and integrator == 'euler':
+                        row['euler_mimic_gap'] = mimic_gap(scene, coordinates)
                     if not kind:
                         contestants[integrator] = peer.timer(torques, dt, integrator)
         row.update(_timings(contestants, steps, settings.repeats))
@@ -160,6 +173,8 @@ COLUMNS = [
     Column('realtime', '× real time', '{:.1f}'),
     Column('error', 'max error ours', '{:.2e}'), Column('euler_error', 'Euler', '{:.2e}'),
     Column('rk4_error', 'RK4', '{:.2e}'),
+    Column('mimic_gap', 'mimic gap ours', '{:.1e}'),
+    Column('euler_mimic_gap', 'Euler', '{:.1e}'),
     Column('friction_us', 'with friction: µs/step', '{:.0f}'),
     Column('friction_problems', 'unconverged, rejected, LS failures'),
     Column('friction_error', 'max error ours', '{:.2e}'),

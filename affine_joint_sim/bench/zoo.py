@@ -7,7 +7,7 @@ A case is a zoo name or a URDF path. Its pose puts every limited joint at 0 move
 within the run), every unlimited joint at 0. Its torques are τ = h(q0) + M(q0)·PUSH per joint
 [N·m | N]: the rigid tree's gravity load at the pose (``references.RigidTree``: the joints'
 generalized forces that hold the pose) plus the accelerations PUSH [rad/s² | m/s²], held for
-the whole run.
+the whole run; a mimic joint's goes to its leader (``leaders_carry``).
 """
 
 from pathlib import Path
@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ['ROBOTS', 'MARGIN', 'PUSH', 'FRICTION_SHARE', 'ZooError', 'Robot', 'installed',
-           'urdf_path', 'load', 'frictions', 'with_friction']
+           'urdf_path', 'load', 'leaders_carry', 'frictions', 'with_friction']
 
 MARGIN = 0.1     # of each limited joint's range kept free on either side of the pose
 PUSH = 0.1       # rad/s² (revolute) or m/s² (prismatic) added to gravity compensation
@@ -82,7 +82,8 @@ def load(name: str, dts) -> tuple[dict, np.ndarray]:
     from affine_joint_sim.scene import Scene
 
     path = urdf_path(name)
-    pose = {j.name: _inside(j.limit) for j in Scene.from_urdf(path).joints}
+    pose = {j.name: _inside(j.limit) for j in Scene.from_urdf(path).joints
+            if j.mimic is None}         # a mimic joint starts where its leader puts it
     scenes = {dt: Scene.from_urdf(path, dt=dt, initial_positions=pose) for dt in dts}
     scene = scenes[dts[0]]
     tree = RigidTree(scene)
@@ -90,7 +91,23 @@ def load(name: str, dts) -> tuple[dict, np.ndarray]:
     still = np.zeros(len(start))
     mass = tree.mass_matrix(start)
     gravity_load = -mass @ tree.acceleration(start, still, still)     # h(q0)
-    return scenes, gravity_load + mass @ np.full(len(start), PUSH)
+    return scenes, leaders_carry(scene, gravity_load + mass @ np.full(len(start), PUSH))
+
+
+def leaders_carry(scene, torques) -> np.ndarray:
+    """``torques`` (per scene joint) with each mimic joint's moved to its leader, times the
+    multiplier: the generalized force of the coupled pair (virtual work: τ_l + m τ_f), which a
+    follower, taking no command, cannot receive itself. Followers of followers first."""
+    out = np.array(torques, dtype=np.float64)
+    leader = {k: scene.joint_index(j.mimic.joint) for k, j in enumerate(scene.joints)
+              if j.mimic is not None}
+
+    def depth(k):
+        return 0 if k not in leader else 1 + depth(leader[k])
+    for k in sorted(leader, key=depth, reverse=True):
+        out[leader[k]] += scene.joints[k].mimic.multiplier * out[k]
+        out[k] = 0.0
+    return out
 
 
 def _inside(limit) -> float:

@@ -18,7 +18,7 @@ import warp as wp
 from affine_joint_sim.physics import joints
 from affine_joint_sim.physics.solve import coupled_solve, newton, tree_solve
 from affine_joint_sim.physics.stages import (affine, assemble, commands, commit, frames,
-                                             joint_terms, kernel_math, ortho, potential,
+                                             joint_terms, kernel_math, mimic, ortho, potential,
                                              precision, prediction, sensing, step)
 from affine_joint_sim.physics.contact import geometry as contact_geometry
 from affine_joint_sim.physics.contact import report
@@ -28,7 +28,7 @@ from affine_joint_sim.physics.stages.kernel_math import source_salt
 
 __all__ = ['step_kernels', 'scalar_of', 'frame_kernel', 'report_kernel', 'sensor_kernel']
 
-_STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, commands,
+_STAGES = (kernel_math, affine, ortho, tree_solve, joints, joint_terms, mimic, commands,
            contact_geometry, contact_terms, coupled_solve, potential, assemble, prediction, newton,
            commit, step)
 _BUILT = {}

@@ -30,12 +30,15 @@ class CommandBuffer:
         enabled: per joint of ``joint_names``, whether its torque is on at the start (the
             scene's); a torque sent to a disabled joint is said once (it acts only once the
             joint is enabled).
+        mimics: each mimic joint's leader, by name: a command to a mimic joint is dropped
+            with that reason (it follows its leader).
     """
 
     def __init__(self, joint_names: list[str], command_timeout: float = 0.0,
                  array_joints: list[str] | None = None, drive_joints=(), effort_bounds=None,
-                 enabled=None, damped_joints=()):
+                 enabled=None, damped_joints=(), mimics=None):
         self.joint_names = list(joint_names)
+        self.mimics = dict(mimics or {})
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.command_timeout = command_timeout
         self.array_joints = list(array_joints or joint_names)
@@ -62,7 +65,8 @@ class CommandBuffer:
                    drive_joints=sim.drive_joint_names,
                    effort_bounds=np.where(limits <= bounds, np.inf, bounds),
                    enabled=[sim.scene.joints[k].enabled for k in index],
-                   damped_joints=sim.damped_joint_names)
+                   damped_joints=sim.damped_joint_names,
+                   mimics={j.name: j.mimic.joint for j in sim.scene.joints if j.mimic})
 
     def reset(self, torques, sim_time: float = 0.0) -> None:
         """Forget pending commands; ``torques`` [N·m] (the scene's) count as commanded at
@@ -81,7 +85,7 @@ class CommandBuffer:
         returns why it was rejected, or None."""
         k = self._index.get(joint)
         if k is None:
-            return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
+            return self._unknown(joint)
         if not math.isfinite(value):
             return f'torque {value!r} for joint {joint!r} is not finite: dropped'
         problem = None
@@ -98,11 +102,18 @@ class CommandBuffer:
         self._torque[k] = float(value)
         return problem
 
+    def _unknown(self, joint: str) -> str:
+        """Why a command to ``joint``, not one of joint_names, is dropped."""
+        if joint in self.mimics:
+            return (f'joint {joint!r} mimics {self.mimics[joint]!r}: it follows it and takes no '
+                    'command (dropped)')
+        return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
+
     def enable(self, joint: str, flag: bool) -> str | None:
         """Queue the enable flag of ``joint``'s torque; returns why it was rejected, or None."""
         k = self._index.get(joint)
         if k is None:
-            return f'unknown joint {joint!r} (joints: {", ".join(self.joint_names)})'
+            return self._unknown(joint)
         self._enabled[k] = bool(flag)
         return None
 
@@ -138,7 +149,7 @@ class CommandBuffer:
         problems = []
         for i, name in enumerate(names):
             if name not in self._index:
-                problems.append(f'unknown joint {name!r} (joints: {", ".join(self.joint_names)})')
+                problems.append(self._unknown(name))
                 continue
             if len(efforts) and not math.isnan(efforts[i]):
                 problems.append(self.torque(name, efforts[i]))

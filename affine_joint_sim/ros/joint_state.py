@@ -1,13 +1,16 @@
 """The ``joint_states`` message of a Stepper: one filler for the node, the bag replay and its
 ``--out`` bag, so all three publish and compare the same thing.
 
-It lists the joints that move (revolute and prismatic, in scene order), as ros2_control's
-joint_state_broadcaster does; fixed joints have no state (robot_state_publisher takes them
-from the robot description). position = angle [rad] or distance [m], velocity [rad/s | m/s],
-effort = applied torque [N·m] or force [N]; the stamp is the simulated time.
+It lists the joints that move (revolute and prismatic, mimic joints included, in scene order),
+as ros2_control's joint_state_broadcaster does; fixed joints have no state
+(robot_state_publisher takes them from the robot description). position = angle [rad] or
+distance [m], velocity [rad/s | m/s], effort = applied torque [N·m] or force [N]; the stamp is
+the simulated time.
 """
 
 import numpy as np
+
+from affine_joint_sim.physics.host.joint_kinds import joint_kind
 
 __all__ = ['JointStateFiller']
 
@@ -21,8 +24,9 @@ class JointStateFiller:
     """
 
     def __init__(self, sim, msg_class):
-        self.names = sim.command_joint_names
-        moving = sim.command_joint_index
+        moving = np.array([k for k, kind in enumerate(sim.joint_types)
+                           if joint_kind(kind).command is not None], dtype=np.intp)
+        self.names = [sim.joint_names[k] for k in moving]
         # without fixed joints every array is sent as it is (no copy per step)
         self.index = None if len(moving) == len(sim.joint_types) else moving
         self.wrapped = np.array([j.angle_mode == 'wrapped' and j.type == 'revolute'

@@ -12,7 +12,8 @@ What becomes what:
   UID 20 with its limit (UID 669); ``<dynamics damping>`` → damping, ``<dynamics friction>``
   → friction (Coulomb). Angles are multi-turn (``angle_mode: continuous``), torques pure
   couples (``torque_model: generalized``). ``floating`` → the child is a free body;
-  ``planar`` → error; ``mimic`` is not modelled (a warning).
+  ``planar`` → error; ``<mimic joint multiplier offset>`` → a mimic coupling to that joint
+  (the follower starts where its leader puts it unless ``initial_positions`` names it).
 - Visuals (``urdf.visuals``) keep their pose on the body, geometry, colour and mesh URIs.
 - With ``contact`` or ``ground`` given, each link's ``<collision>`` elements become its body's
   collision geometry at their pose in the body frame (meshes found as visuals are; one that
@@ -111,6 +112,7 @@ class _Converter:
         self._check_names()
         self._check_masses()
         self.joint_of = {joint.child: joint for joint in robot.joints}   # child link → joint
+        self.joint_named = {joint.name: joint for joint in robot.joints}
         self.root = self._root()
         self.order = self._tree_order()
         self.poses = self._forward_kinematics()
@@ -191,9 +193,9 @@ class _Converter:
 
     def _joint_position(self, joint) -> float:
         """The joint's coordinate at t = 0 [rad | m]: its ``initial_positions`` entry (refused
-        outside the joint's limits: a limit entered that deep rejects every step), else 0,
-        else (a robot whose zero position is outside its limits, as some exports are) its
-        nearest limit, said once."""
+        outside the joint's limits: a limit entered that deep rejects every step), else for a
+        mimic joint where its leader puts it, else 0, else (a robot whose zero position is
+        outside its limits, as some exports are) its nearest limit, said once."""
         if joint.name in self._starts:
             return self._starts[joint.name]
         bounds = self._start_bounds(joint)
@@ -203,6 +205,11 @@ class _Converter:
             if bounds is not None and not bounds[0] <= start <= bounds[1]:
                 self._fail(f'initial_positions: {joint.name!r} = {start:g} {unit} is outside the '
                            f'joint\'s limits [{bounds[0]:g}, {bounds[1]:g}] {unit}')
+        elif joint.mimic is not None and joint.mimic.joint in self.joint_named:
+            self._starts[joint.name] = 0.0      # (a loop of mimics ends here; refused later)
+            mimic = self._mimic(joint)
+            start = (mimic['multiplier'] * self._joint_position(self.joint_named[mimic['joint']])
+                     + mimic['offset'])
         elif bounds is not None and not bounds[0] <= 0.0 <= bounds[1]:
             start = bounds[0] if bounds[0] > 0.0 else bounds[1]
             _warn(f'{self.path}: joint {joint.name!r} starts at its '
@@ -326,7 +333,6 @@ class _Converter:
             _warn(f'{self.path}: joint {joint.name!r} is floating: link {joint.child!r} moves '
                   'freely (no joint)', 'floating joints (their child moves freely)')
             return None
-        self._say_unmodelled(joint)
         out = {'name': joint.name, 'type': 'revolute' if kind == 'continuous' else kind,
                'parent': self.body_of[joint.parent], 'child': self.body_of[joint.child]}
         if kind == 'fixed':
@@ -353,6 +359,8 @@ class _Converter:
             value = self._dynamics(joint, key)
             if value:
                 out[key] = value
+        if joint.mimic is not None:
+            out['mimic'] = self._mimic(joint)
         return out
 
     def _dynamics(self, joint, key: str) -> float:
@@ -397,13 +405,16 @@ class _Converter:
                   '{limit: null}}, or make it continuous', 'joints locked by lower = upper')
         return {'lower': lower, 'upper': upper}
 
-    def _say_unmodelled(self, joint) -> None:
-        if joint.mimic is not None:
-            missing = ('' if any(j.name == joint.mimic.joint for j in self.robot.joints) else
-                       ' (no joint of that name exists)')
-            _warn(f'{self.path}: joint {joint.name!r} mimics {joint.mimic.joint!r}{missing}: '
-                  'mimic is not modelled, the joint moves on its own (command it like the '
-                  'other)', 'mimic joints not modelled (they move on their own)')
+    def _mimic(self, joint) -> dict:
+        """The scene's ``mimic`` entry of a URDF ``<mimic>`` (multiplier 1, offset 0 where
+        not given)."""
+        mimic = joint.mimic
+        if mimic.joint not in self.joint_named:
+            self._fail(f'joint {joint.name!r}: <mimic joint="{mimic.joint}"> names no joint of '
+                       'the robot')
+        return {'joint': mimic.joint,
+                'multiplier': 1.0 if mimic.multiplier is None else float(mimic.multiplier),
+                'offset': 0.0 if mimic.offset is None else float(mimic.offset)}
 
     # ---- the scene -----------------------------------------------------------------------
 

@@ -2,7 +2,8 @@
 
 The incremental potential (docs/physics.md#incremental-potential) is ½‖q − q̃‖²_M + dt²·V(q),
 so the physical potential V is the orthogonality energy κ v̄ ‖AAᵀ − I‖² plus each joint's
-constraint spring and limit penalty divided by dt² (those terms carry no dt² there). With
+constraint spring and limit penalty and each mimic coupling's spring divided by dt² (those
+terms carry no dt² there). With
 gravity's potential, the affine kinetic energy ½ q̇ᵀ M q̇ and, with contact, the barrier's
 energy b(d) of every pair closer than d̂ this is the energy that implicit BDF steps dissipate
 (docs/physics.md#mechanical-energy). NumPy, host side, world frame, SI units.
@@ -27,8 +28,8 @@ def barrier_energy(d: float, d_hat: float, kappa: float) -> float:
 
 def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,
                       coordinates: np.ndarray) -> np.ndarray:
-    """Kinetic + gravity + orthogonality + joint-spring + limit (+ contact barrier) energy of
-    the free bodies [J].
+    """Kinetic + gravity + orthogonality + joint-spring + limit + mimic-spring (+ contact
+    barrier) energy of the free bodies [J].
 
     Args:
         model: the scene's host model.
@@ -59,6 +60,10 @@ def mechanical_energy(model: HostModel, q: np.ndarray, qdot: np.ndarray,
         residuals += functions.nonlinear_residuals(point, direction, qp, qc)
         spring = 0.5 * model.joint_stiffness[k] * sum(np.sum(r ** 2, axis=-1) for r in residuals)
         joints += (spring + _limit_energy(model, k, coordinates[..., k])) / model.dt ** 2
+    for i, follower in enumerate(model.mimic_follower):
+        r = (coordinates[..., follower] - model.mimic_multiplier[i]
+             * coordinates[..., model.mimic_leader[i]] - model.mimic_offset[i])
+        joints += 0.5 * model.mimic_stiffness[i] * r ** 2 / model.dt ** 2
     return bodies + joints + _contact_energy(model, q)
 
 

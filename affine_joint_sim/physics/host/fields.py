@@ -14,7 +14,8 @@ may touch each other), ``body_end`` and ``touch_end`` (one more than ``body``, `
 then face × static vertex), ``pair`` (the static pairs, then those of each pair of bodies that
 may touch: its points against the other's faces both ways, then its edges against the
 other's) and ``near`` (room for two near lists, the last step's and the next: twice
-``HostModel.near_room`` pairs, grown by the Stepper where a step needs more);
+``HostModel.near_room`` pairs, grown by the Stepper where a step needs more); ``mimic``
+(mimic couplings), ``mimic_body`` (mimic × body) and ``mimic_square`` (mimic × mimic);
 ``()`` is a plain struct member, not an array. Frames: world, SI units.
 """
 
@@ -120,6 +121,13 @@ FIELDS = _fields('model', [
     ('joint_initial_position', 'scalar', J, 'rad | m', 'coordinate x₀ at t = 0 (its origin is '
      'the URDF\'s)'),
     ('joint_drive_stiffness', 'scalar', J, 'kg', 'drive K = strength_ratio (m_P + m_C), 0: none'),
+    ('mimic_follower', 'int32', ('mimic',), '-', 'the joint of each mimic coupling (its '
+     'follower)'),
+    ('mimic_leader', 'int32', ('mimic',), '-', 'the joint it follows'),
+    ('mimic_multiplier', 'scalar', ('mimic',), '-', 'm of x_follower = m x_leader + o'),
+    ('mimic_offset', 'scalar', ('mimic',), 'rad | m', 'o'),
+    ('mimic_stiffness', 'scalar', ('mimic',), 'kg', 'K of the coupling K/2 (x_f − m x_l − o)² '
+     '= strength_ratio (m_P + m_C) of the follower\'s bodies'),
     ('has_contact', 'int32', (), '-', '1: the scene has contact (every contact loop is skipped '
      'otherwise)'),
     ('model_address', 'uint64', (), '-', 'the device address of a one-element array holding '
@@ -286,6 +294,15 @@ FIELDS = _fields('model', [
      'move from where they were at q_listed before near_pairs is gathered again (−1: at the '
      'next step)'),
     ('q_listed', 'vec12', EB, 'm, -', 'q_n of the step that gathered near_pairs last'),
+    ('mimic_gradient', 'vec12', ('env', 'mimic_body'), '-', 'per mimic coupling (body rows '
+     'of one after another\'s) the gradient g of its x_f − m x_l at the last factorization: '
+     'its Hessian K g gᵀ enters every solve by the Sherman–Morrison–Woodbury formula'),
+    ('mimic_solved', 'vec12', ('env', 'mimic_body'), 'm, - per (rad | m)', 'H⁻¹ g of each, H '
+     'the factored blocks'),
+    ('mimic_matrix', 'scalar', ('env', 'mimic_square'), 'kg^-½', 'the Cholesky '
+     'factor (lower, row-major) of 1/K + gᵀ H⁻¹ g over the couplings'),
+    ('mimic_weight', 'scalar', ('env', 'mimic'), 'kg · (rad | m)', 'the Woodbury weights of '
+     'the solve in progress'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])
@@ -381,6 +398,9 @@ def array_sizes(host, envs: int, chunks: int = 1, near_room: int | None = None) 
             'static_vertex': len(host.static_vertex),
             'surface': len(host.surface_radius),
             'near': 2 * (host.near_room if near_room is None else near_room),
+            'mimic': len(host.mimic_follower),
+            'mimic_body': len(host.mimic_follower) * host.body_count,
+            'mimic_square': len(host.mimic_follower) ** 2,
             'stat_int': len(STAT_INT_NAMES),
             'stat_float': len(STAT_FLOAT_NAMES), 'problem': len(PROBLEM_COLUMNS)}
 

@@ -147,7 +147,8 @@ def build_model(scene) -> HostModel:
         ('limits', bool((moving & (joints['joint_limit_strength'] > 0)).any())),
         ('drives', bool((moving & (joints['joint_drive_stiffness'] > 0)).any())),
         ('damping', bool((moving & (joints['joint_damping'] > 0)).any())),
-        ('friction', bool((moving & (joints['joint_friction'] > 0)).any()))) if on]
+        ('friction', bool((moving & (joints['joint_friction'] > 0)).any())),
+        ('mimic', bool(len(joints['mimic_follower'])))) if on]
     nonlinear = np.array([not JOINT_KINDS[code].linear for code in joints['joint_type']],
                          dtype=bool)
     state_coupling = bool((state_terms | (moving & nonlinear)).any())
@@ -217,11 +218,26 @@ def _joint_arrays(scene, rotations, q0, mass) -> dict:
     out['joint_drive_stiffness'] = np.array(
         [j.drive.strength_ratio * (mass[parent[k]] + mass[child[k]]) if j.drive else 0.0
          for k, j in enumerate(scene.joints)])
+    out.update(_mimic_arrays(scene, parent, child, mass))
     out['joint_state_terms'] = np.array(
         [j.limit is not None or j.drive is not None or j.damping > 0.0 or j.friction > 0.0
          for j in scene.joints],
         dtype=np.int32)
     return out
+
+
+def _mimic_arrays(scene, parent, child, mass) -> dict:
+    """The mimic couplings' model fields, in the order of their followers."""
+    followers = [k for k, j in enumerate(scene.joints) if j.mimic is not None]
+    mimics = [scene.joints[k].mimic for k in followers]
+    return {'mimic_follower': np.array(followers, dtype=np.int32),
+            'mimic_leader': np.array([scene.joint_index(m.joint) for m in mimics],
+                                     dtype=np.int32),
+            'mimic_multiplier': np.array([m.multiplier for m in mimics], dtype=np.float64),
+            'mimic_offset': np.array([m.offset for m in mimics], dtype=np.float64),
+            'mimic_stiffness': np.array([m.strength_ratio * (mass[parent[k]] + mass[child[k]])
+                                         for k, m in zip(followers, mimics)],
+                                        dtype=np.float64)}
 
 
 _SIDE_VECTORS = [f'joint_{side}_{what}' for side in ('parent', 'child')

@@ -102,8 +102,8 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def hessian_times(model: Model, scratch: Scratch, env: int, x: wp.array2d(dtype=vec12),
                       out: wp.array2d(dtype=vec12)):
-        """out = H x over the free bodies: diagonal blocks, the tree's couplings and the
-        contact couplings of this iterate."""
+        """out = H x over the free bodies: diagonal blocks, the tree's couplings, the
+        contact couplings of this iterate and the mimic couplings."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
             b = model.elim_order[k]
@@ -122,6 +122,16 @@ def build(t) -> SimpleNamespace:
                 block = scratch.contact_block[env, j]
                 out[env, a] += block @ x[env, c]
                 out[env, c] += wp.transpose(block) @ x[env, a]
+        rows = model.body_fixed.shape[0]
+        for i in range(model.mimic_follower.shape[0]):     # K g gᵀ x of each mimic
+            along = zero
+            for k in range(n_free):
+                b = model.elim_order[k]
+                along += wp.dot(scratch.mimic_gradient[env, i * rows + b], x[env, b])
+            along *= model.mimic_stiffness[i]
+            for k in range(n_free):
+                b = model.elim_order[k]
+                out[env, b] += along * scratch.mimic_gradient[env, i * rows + b]
 
     @wp.func
     def dot_free(model: Model, env: int, x: wp.array2d(dtype=vec12),
@@ -152,7 +162,7 @@ def build(t) -> SimpleNamespace:
                     b = model.elim_order[k]
                     scratch.cg_residual[env, b] = scratch.rhs[env, b] - scratch.cg_product[env, b]
                 solve_factored_into(model, scratch, env, scratch.cg_residual,
-                                    scratch.cg_preconditioned)
+                                    scratch.cg_preconditioned, 0)
                 for k in range(n_free):
                     b = model.elim_order[k]
                     scratch.cg_direction[env, b] = scratch.cg_preconditioned[env, b]
@@ -173,7 +183,7 @@ def build(t) -> SimpleNamespace:
                         scratch.dq[env, b] += step * scratch.cg_direction[env, b]
                         scratch.cg_residual[env, b] -= step * scratch.cg_product[env, b]
                     solve_factored_into(model, scratch, env, scratch.cg_residual,
-                                        scratch.cg_preconditioned)
+                                        scratch.cg_preconditioned, 0)
                     rz_next = dot_free(model, env, scratch.cg_residual,
                                        scratch.cg_preconditioned)
                     for k in range(n_free):

@@ -2,7 +2,10 @@
 
 The free bodies joined by joints form a forest; eliminating them in ``model.elim_order``
 (every body before its tree parent) factors H without fill-in: 12×12 blocks only. The factors
-stay in scratch, so a later right-hand side is solved without factoring again. Where bodies may
+stay in scratch, so a later right-hand side is solved without factoring again. A mimic
+coupling's Hessian K g gᵀ reaches bodies off the tree (two fingers on one hand): it stays out
+of the blocks and enters every solve by the Sherman–Morrison–Woodbury formula, one more solve
+per coupling at each factorization (``factor_mimics``, ``correct_mimics``). Where bodies may
 touch each other (``t.bodies``) the forest is the joints' grown by contacts between bodies
 each iterate (``coupled_solve.grow_forest``: scratch.forest_order, forest_parent,
 forest_block), read through the same three accessors.
@@ -162,12 +165,14 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def solve_factored_into(model: Model, scratch: Scratch, env: int,
-                            source: wp.array2d(dtype=vec12), target: wp.array2d(dtype=vec12)):
-        """Solve H x = source into target with the factors of the last ``factor_tree``."""
+                            source: wp.array2d(dtype=vec12), target: wp.array2d(dtype=vec12),
+                            at: int):
+        """Solve H x = source into target with the factors of the last ``factor_tree`` (body
+        b's row of either at column at + b)."""
         n_free = model.elim_order.shape[0]
         for k in range(n_free):
             b = eliminated(model, scratch, env, k)
-            scratch.forward[env, b] = source[env, b]
+            scratch.forward[env, b] = source[env, at + b]
         for k in range(n_free):
             b = eliminated(model, scratch, env, k)
             y = forward_solve(scratch.factor[env, b], scratch.pivot_inverse[env, b],
@@ -182,22 +187,86 @@ def build(t) -> SimpleNamespace:
             r = scratch.forward[env, b]
             p = parent_of(model, scratch, env, b)
             if p >= 0:
-                r = r - scratch.coupling[env, b] @ target[env, p]
-            target[env, b] = backward_solve(scratch.factor[env, b],
-                                            scratch.pivot_inverse[env, b], r)
+                r = r - scratch.coupling[env, b] @ target[env, at + p]
+            target[env, at + b] = backward_solve(scratch.factor[env, b],
+                                                 scratch.pivot_inverse[env, b], r)
 
     # three call sites with pairs of bodies: out of line (physics.stages.out_of_line)
     solve_factored_into = apart(t, solve_factored_into)
 
     @wp.func
+    def factor_mimics(model: Model, scratch: Scratch, env: int):
+        """With the blocks H just factored, the mimic couplings' part of the
+        Sherman–Morrison–Woodbury formula for H + G K Gᵀ (G's columns g, K their stiffnesses:
+        scratch.mimic_gradient): Z = H⁻¹ G into scratch.mimic_solved and the Cholesky factor
+        of 1/K + Gᵀ Z into scratch.mimic_matrix. Nothing without mimics."""
+        count = model.mimic_follower.shape[0]
+        rows = model.body_fixed.shape[0]
+        n_free = model.elim_order.shape[0]
+        for i in range(count):
+            solve_factored_into(model, scratch, env, scratch.mimic_gradient,
+                                scratch.mimic_solved, i * rows)
+        for i in range(count):
+            for j in range(i + 1):
+                s = zero
+                for k in range(n_free):
+                    b = model.elim_order[k]
+                    s += wp.dot(scratch.mimic_gradient[env, i * rows + b],
+                                scratch.mimic_solved[env, j * rows + b])
+                if i == j:
+                    s += one / model.mimic_stiffness[i]
+                for k in range(j):
+                    s -= (scratch.mimic_matrix[env, i * count + k]
+                          * scratch.mimic_matrix[env, j * count + k])
+                if i == j:
+                    scratch.mimic_matrix[env, i * count + i] = wp.sqrt(s)
+                else:
+                    scratch.mimic_matrix[env, i * count + j] = (
+                        s / scratch.mimic_matrix[env, j * count + j])
+
+    @wp.func
+    def correct_mimics(model: Model, scratch: Scratch, env: int,
+                       target: wp.array2d(dtype=vec12)):
+        """target = H⁻¹ r (the blocks' solve) turned into (H + G K Gᵀ)⁻¹ r: less Z (1/K +
+        Gᵀ Z)⁻¹ Gᵀ target (``factor_mimics``; the weights in scratch.mimic_weight)."""
+        count = model.mimic_follower.shape[0]
+        rows = model.body_fixed.shape[0]
+        n_free = model.elim_order.shape[0]
+        for i in range(count):
+            w = zero
+            for k in range(n_free):
+                b = model.elim_order[k]
+                w += wp.dot(scratch.mimic_gradient[env, i * rows + b], target[env, b])
+            for j in range(i):
+                w -= scratch.mimic_matrix[env, i * count + j] * scratch.mimic_weight[env, j]
+            scratch.mimic_weight[env, i] = w / scratch.mimic_matrix[env, i * count + i]
+        for ii in range(count):
+            i = count - 1 - ii
+            w = scratch.mimic_weight[env, i]
+            for j in range(i + 1, count):
+                w -= scratch.mimic_matrix[env, j * count + i] * scratch.mimic_weight[env, j]
+            scratch.mimic_weight[env, i] = w / scratch.mimic_matrix[env, i * count + i]
+        if count > 0:
+            for k in range(n_free):
+                b = model.elim_order[k]
+                x = target[env, b]
+                for i in range(count):
+                    x -= scratch.mimic_weight[env, i] * scratch.mimic_solved[env, i * rows + b]
+                target[env, b] = x
+
+    @wp.func
     def solve_factored(model: Model, scratch: Scratch, env: int):
-        """Solve H dq = rhs into scratch.dq with the factors of the last ``factor_tree``."""
-        solve_factored_into(model, scratch, env, scratch.rhs, scratch.dq)
+        """Solve H dq = rhs into scratch.dq with the factors of the last ``factor_tree`` (and
+        of its ``factor_mimics``)."""
+        solve_factored_into(model, scratch, env, scratch.rhs, scratch.dq, 0)
+        correct_mimics(model, scratch, env, scratch.dq)
 
     @wp.func
     def solve_tree(model: Model, scratch: Scratch, env: int):
-        """Factor H (``factor_tree``) and solve H dq = rhs into scratch.dq."""
+        """Factor H (``factor_tree``, ``factor_mimics``) and solve H dq = rhs into
+        scratch.dq."""
         factor_tree(model, scratch, env)
+        factor_mimics(model, scratch, env)
         solve_factored(model, scratch, env)
 
     return SimpleNamespace(cholesky=cholesky, forward_solve=forward_solve,

@@ -2,7 +2,8 @@
 (or the gradient alone, for a solve with the factors of an earlier iteration).
 
 The diagonal blocks are kinetic_scale·M + dt² κ v̄ ∇²‖AAᵀ−I‖² (PSD-projected) + the joints'
-constant blocks. The coupling blocks of the tree are constant (model.elim_offdiag) unless the
+constant blocks (a mimic coupling's Hessian stays out of them: physics.stages.mimic). The
+coupling blocks of the tree are constant (model.elim_offdiag) unless the
 model has state_coupling: then they and the diagonal get each iteration the state-dependent
 Gauss–Newton blocks of prismatic axes and of limit, drive and damping terms, per environment
 (scratch.offdiag, for the blocks such a term touched this iteration: scratch.offdiag_set).
@@ -31,6 +32,7 @@ def build(t) -> SimpleNamespace:
                                                     t.joint_coordinate_gradients)
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
     limit_penetration = t.limit_penetration
+    add_mimics = apart(t, t.add_mimics)      # out of line (physics.stages.out_of_line)
     # each out of line (physics.stages.out_of_line)
     add_contact, add_friction = apart(t, t.add_contact), apart(t, t.add_friction)
     add_damping = apart(t, t.add_damping)
@@ -163,6 +165,7 @@ def build(t) -> SimpleNamespace:
             if model.state_coupling != 0:
                 untrusted += add_state_blocks(model, state, control, q, scratch, env, k, bdf2,
                                               hessian)
+        add_mimics(model, state, q, scratch, env, hessian)
         if wp.static(t.bodies):     # no contact couples two bodies until one adds its block
             if hessian != 0:
                 for j in range(model.touch_a.shape[0]):

@@ -1,7 +1,8 @@
 """The incremental potential E(q) of one environment, for the line search.
 
 E(q) = Σ_free kinetic_scale/2 ‖q − q̃‖²_M + dt² κ v̄ ‖AAᵀ − I‖² + Σ_joints E_joint(q)
-+ Σ_joints φ(x(q)) (limit, drive, damping: physics.stages.joint_terms) + dt² Σ b(d) (contact with
++ Σ_joints φ(x(q)) (limit, drive, damping: physics.stages.joint_terms) + Σ_mimics K/2 r²
+(physics.stages.mimic) + dt² Σ b(d) (contact with
 static half-spaces: physics.contact.terms, +∞ on penetration) + Σ μ dt²λ f0(|u|) (lagged friction);
 the joint terms carry no dt².
 kinetic_scale is 1 (BDF1) or 9/4 (BDF2). See docs/physics.md#incremental-potential.
@@ -28,6 +29,7 @@ def build(t) -> SimpleNamespace:
     # each out of line (physics.stages.out_of_line)
     contact_energy, friction_energy = apart(t, t.contact_energy), apart(t, t.friction_energy)
     damping_energy = apart(t, t.damping_energy)
+    mimic_energy = apart(t, t.mimic_energy)
 
     @wp.func
     def incremental_potential(model: Model, state: State, control: Control,
@@ -49,6 +51,7 @@ def build(t) -> SimpleNamespace:
                     e, d1, d2 = coordinate_terms(model, state, control, env, k,
                                                  joint_coordinate(model, q, state, env, k), bdf2)
                     energy += e
+        energy += mimic_energy(model, state, q, env)
         if wp.static(with_contact):     # compiled in where the scene has contact
             if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed
                 energy += contact_energy(model, q, scratch, env)
