@@ -233,6 +233,9 @@ FIELDS = _fields('model', [
     ('q_tilde', 'vec12', EB, 'm, -', 'predicted state q̃'),
     ('q_start', 'vec12', EB, 'm, -', 'state at the start of a line search'),
     ('dq', 'vec12', EB, 'm, -', 'Newton direction'),
+    ('q_before', 'vec12', EB, 'm, -', 'the iterate before a full step taken unchecked (without '
+     'contact: physics.solve.newton)'),
+    ('dq_before', 'vec12', EB, 'm, -', 'its direction'),
     ('rhs', 'vec12', EB, 'J', '−∇E of the current iterate'),
     ('forward', 'vec12', EB, 'J', 'L⁻¹ rhs of the tree solve'),
     ('velocity', 'vec12', EB, 'm/s, 1/s', 'velocity of the candidate end-of-step state'),

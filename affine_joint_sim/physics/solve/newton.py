@@ -9,13 +9,17 @@ ends most steps without a second Hessian), then a line search on E:
 the full step with the bodies' turns followed on their rotations (``moved``), else a
 backtracking search on the straight path (≤ HALVINGS halvings); a trial is accepted on no
 increase up to the rounding of E, its own and that from the coordinates' (see
-``position_rounding``). With contact (docs/physics.md#contact) the straight path starts at
-the step bound that keeps every point clear of the static things, energies are +∞ on
-penetration, Newton starts from q_n where the prediction touches (or, with static shapes, is
-not reached from q_n on a collision-free straight path) or where E is lower at q_n (a
-resting body), converges only on a full step that is collision-free, and always searches; with
-static shapes or bodies that touch each other the search follows straight paths only. Runs
-inside the step kernel: no host sync.
+``position_rounding``). Without contact the first iteration's full step (the search's first
+trial) is taken before E is known at either end and checked by the next solve on the same
+factors: where that ends Newton, no energy is computed at all (a robot's usual step: one
+Hessian, one factorization, two gradients); else the step is judged as the search would have
+judged it, and the iterates are the search's, bit for bit. With contact
+(docs/physics.md#contact) the straight path starts at the step bound that keeps every point
+clear of the static things, energies are +∞ on penetration, Newton starts from q_n where the
+prediction touches (or, with static shapes, is not reached from q_n on a collision-free
+straight path) or where E is lower at q_n (a resting body), converges only on a full step
+that is collision-free, and always searches; with static shapes or bodies that touch each
+other the search follows straight paths only. Runs inside the step kernel: no host sync.
 """
 
 from types import SimpleNamespace
@@ -328,7 +332,7 @@ def build(t) -> SimpleNamespace:
         for e in range(2):
             if e == 0 and compare == 0:
                 continue
-            if e == 1 and model.line_search == 0 and model.has_contact == 0:
+            if e == 1 and model.has_contact == 0:     # without contact: when first needed
                 break
             at = q
             if e == 0:
@@ -356,7 +360,10 @@ def build(t) -> SimpleNamespace:
         factored = int(0)
         inner = int(0)
         stalls = int(0)
-        for it in range(model.newton_max_iter):
+        known = model.has_contact      # whether ``energy`` holds E at the iterate
+        unchecked = int(0)      # the last iteration's full step was taken before E judged it
+        it = int(0)
+        while it < model.newton_max_iter:
             iterations = it + 1
             for k in range(n_free):
                 b = model.elim_order[k]
@@ -380,20 +387,48 @@ def build(t) -> SimpleNamespace:
                 if small != 0 and (fresh != 0 or untrusted == 0):
                     converged = 1
                     break
-                if fresh != 0:
+                if fresh != 0 or unchecked != 0:
                     break
                 fresh = 1
             if converged != 0:
                 move(model, q, scratch, env, one, 0)
                 break
-            if model.line_search == 0 and model.has_contact == 0:
+            if unchecked != 0:
+                # the unchecked step did not end Newton: judge it as the line search would
+                # have (back to its start, which the next pass takes again from the point
+                # the search accepts: the iterates of a search at every step, bit for bit)
+                unchecked = 0
+                for k in range(n_free):
+                    b = model.elim_order[k]
+                    q[env, b] = scratch.q_before[env, b]
+                    scratch.q_start[env, b] = scratch.q_before[env, b]
+                    scratch.dq[env, b] = scratch.dq_before[env, b]
+                it -= 1
+            elif model.has_contact == 0 and (model.line_search == 0 or (
+                    it == 0 and it + 2 <= model.newton_max_iter)):
+                # without contact, the full step (without a line search, every one); with
+                # one, the first full step (the search's first trial) is taken before E at
+                # either end is known: where the next solve on these factors ends Newton
+                # there, neither energy is needed (a robot's usual step)
+                if model.line_search != 0:
+                    for k in range(n_free):
+                        b = model.elim_order[k]
+                        scratch.q_before[env, b] = scratch.q_start[env, b]
+                        scratch.dq_before[env, b] = scratch.dq[env, b]
+                    unchecked = 1
                 move(model, q, scratch, env, full_step(model, scratch, env), 1)
+                it += 1
                 continue
+            if known == 0:      # at the iterate (q: scratch.q_start holds free bodies only)
+                energy = incremental_potential(model, state, control, q, scratch, env,
+                                               kinetic_scale, bdf2)
+                known = 1
             trial, used, accepted = line_search(model, state, control, q, scratch, env,
                                                 kinetic_scale, bdf2, energy)
             halvings += used
             failures += 1 - accepted
             energy = trial
+            it += 1
         return iterations, halvings, failures, converged, residual, inner, stalls
 
     return SimpleNamespace(warm_start=warm_start, update_size=update_size,
