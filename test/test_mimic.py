@@ -255,3 +255,26 @@ def test_passive_mimic_sliders_never_gain_energy():
         energies.append(float(sim.energy))
     assert max(energies) <= energies[0] * (1.0 + 1e-9)
     assert abs(sim.angles[1] + sim.angles[0]) < 1e-7
+
+
+def test_the_node_publishes_a_mimic_joint_and_drops_a_command_for_it(sim, ros_node, wait_for,
+                                                                       tmp_path):
+    """Over DDS: joint_states lists the follower beside its leader, and a joint_commands
+    message naming both applies the leader's effort and drops the follower's, saying why."""
+    from helpers.ros_client import Inbox, publisher
+    from sensor_msgs.msg import JointState
+
+    path = tmp_path / 'hand.urdf'
+    path.write_text(HAND.format(extra=''))
+    child = sim('--scene', path, '--mode', 'realtime')
+    states = Inbox(ros_node, 'joint_states')
+    assert wait_for(lambda: states.last is not None)
+    assert list(states.last.name) == ['finger1', 'finger2']
+    pub = publisher(ros_node, wait_for, 'joint_commands')
+    pub.publish(JointState(name=['finger2', 'finger1'], effort=[1.0, 0.004]))
+    assert wait_for(lambda: states.last.effort[0] == 0.004 and states.last.position[0] > 1e-4)
+    last = states.last
+    assert last.effort[1] == 0.0 and abs(last.position[1] - last.position[0]) < 1e-8
+    output = child.stop()
+    assert "joint 'finger2' mimics 'finger1': it follows it and takes no command" in output, \
+        output
