@@ -366,3 +366,29 @@ def test_commands_to_the_wrong_joint_are_refused():
         sim.set_target('hinge', float('nan'))
     with pytest.raises(ValueError, match='has no drive; joints with a drive: hinge, slide'):
         sim.set_target('weld', 0.0)
+
+
+@pytest.mark.parametrize('dt', [1e-3, 1e-2])
+def test_a_limit_skipped_where_it_cannot_be_reached_changes_no_bit(dt):
+    """A limited joint with no other coordinate term skips its limit wherever a bound on its
+    bodies' turn since the step's start keeps it inside (physics.stages.joint_terms
+    ``limit_idle``): a link whipped into its limit and back moves bit for bit as with a
+    disabled drive beside the limit (exact zeros too, but never skipped)."""
+    def run(drive):
+        joint = {'name': 'hinge', 'parent': 'base', 'child': 'link', 'x0': [0.0, -0.05, 0.0],
+                 'x1': [0.0, 0.05, 0.0], 'limit': {'lower': -0.3, 'upper': 0.3}}
+        if drive:
+            joint['drive'] = {'enabled': False}
+        sim = Stepper(Scene.from_dict({'dt': dt, 'gravity': [0.0, 0.0, -9.81], 'bodies': [
+            {'name': 'base', 'fixed': True, 'shape': {'box': [0.1, 0.1, 0.1]}, 'mass': 1.0},
+            {'name': 'link', 'shape': {'box': [0.04, 0.04, 0.4]}, 'mass': 0.5,
+             'position': [0.0, 0.0, -0.2]}], 'joints': [joint]}))
+        angles = []
+        for n in range(round(0.6 / dt)):
+            sim.set_torque('hinge', 3.0 if n * dt < 0.3 else -3.0)
+            sim.step()
+            angles.append(sim.angles[0])
+        return np.array(angles)
+    skipped = run(drive=False)
+    np.testing.assert_array_equal(skipped, run(drive=True))
+    assert skipped.max() > 0.3 - 1e-3 and skipped.min() < -0.3 + 1e-3    # both limits met

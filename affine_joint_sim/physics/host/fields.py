@@ -121,6 +121,9 @@ FIELDS = _fields('model', [
     ('joint_initial_position', 'scalar', J, 'rad | m', 'coordinate x₀ at t = 0 (its origin is '
      'the URDF\'s)'),
     ('joint_drive_stiffness', 'scalar', J, 'kg', 'drive K = strength_ratio (m_P + m_C), 0: none'),
+    ('joint_limit_alone', 'int32', J, '-', '1: a revolute joint whose only coordinate term is a '
+     'limit of some width (skipped where it provably stays inside: physics.stages.joint_terms)'),
+    ('limits_alone', 'int32', (), '-', 'how many joint_limit_alone'),
     ('mimic_follower', 'int32', ('mimic',), '-', 'the joint of each mimic coupling (its '
      'follower)'),
     ('mimic_leader', 'int32', ('mimic',), '-', 'the joint it follows'),
@@ -306,6 +309,12 @@ FIELDS = _fields('model', [
      'factor (lower, row-major) of 1/K + gᵀ H⁻¹ g over the couplings'),
     ('mimic_weight', 'scalar', ('env', 'mimic'), 'kg · (rad | m)', 'the Woodbury weights of '
      'the solve in progress'),
+    ('limit_reach', 'scalar', EJ, '-', 'per joint_limit_alone, the largest bound D on its '
+     'bodies\' turn since q_n (``limit_idle``) within which its coordinate stays inside its '
+     'limits this step (≤ 0: none)'),
+    ('body_size', 'scalar', EB, '-', '‖A‖_F of each body at q_n'),
+    ('body_turn', 'scalar', EB, '-', '‖A − A(q_n)‖_F of each free body at the iterate being '
+     'evaluated (with joint_limit_alone joints)'),
     ('limit_depth', 'scalar', EJ, '-', 'limit penetration / (u − l) at the last Newton iterate '
      '(0: inside the limits; −1: none yet this step)'),
 ])

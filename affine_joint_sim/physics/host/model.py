@@ -219,6 +219,11 @@ def _joint_arrays(scene, rotations, q0, mass) -> dict:
         [j.drive.strength_ratio * (mass[parent[k]] + mass[child[k]]) if j.drive else 0.0
          for k, j in enumerate(scene.joints)])
     out.update(_mimic_arrays(scene, parent, child, mass))
+    out['joint_limit_alone'] = np.array(
+        [kind.name == 'revolute' and j.limit is not None and j.limit.upper > j.limit.lower
+         and j.drive is None and j.damping == 0.0 and j.friction == 0.0
+         for j, kind in zip(scene.joints, kinds)], dtype=np.int32)
+    out['limits_alone'] = int(out['joint_limit_alone'].sum())
     out['joint_state_terms'] = np.array(
         [j.limit is not None or j.drive is not None or j.damping > 0.0 or j.friction > 0.0
          for j in scene.joints],

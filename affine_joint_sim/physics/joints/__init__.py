@@ -190,7 +190,16 @@ def build(t) -> SimpleNamespace:
                                                             command, scale)
         return dropped
 
-    return SimpleNamespace(joint_energy=joint_energy, joint_gradients=joint_gradients,
+    revolute = impls[[kind.name for kind in JOINT_KINDS].index('revolute')]
+
+    @wp.func
+    def revolute_alignment(model: Model, q: wp.array2d(dtype=vec12), env: int, k: int):
+        """(c, s) of revolute joint k at q (its type's ``alignment``): θ = atan2(s, c)."""
+        return wp.static(revolute.alignment)(model, q[env, model.joint_parent[k]],
+                                             q[env, model.joint_child[k]], k)
+
+    return SimpleNamespace(revolute_alignment=revolute_alignment,
+                           joint_energy=joint_energy, joint_gradients=joint_gradients,
                            joint_state_blocks=joint_state_blocks, joint_gap=joint_gap,
                            joint_raw_coordinate=joint_raw_coordinate,
                            joint_increment=joint_increment,

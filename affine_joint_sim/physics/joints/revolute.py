@@ -64,8 +64,9 @@ def build(t) -> SimpleNamespace:
         return mat12(), mat12(), mat12(), int(0)
 
     @wp.func
-    def coordinate(model: Model, qp: vec12, qc: vec12, k: int):
-        """θ(q) ∈ (−π, π]: right-hand rotation of child vs parent about x1 − x0."""
+    def alignment(model: Model, qp: vec12, qc: vec12, k: int):
+        """(c, s): the child's normal frame in the parent's, as cos and sin of θ times the
+        frames' alignment (1 for rotations about a common axis)."""
         ap = affine(qp)
         ac = affine(qc)
         n_p = ap @ model.joint_parent_normal[k]
@@ -74,6 +75,12 @@ def build(t) -> SimpleNamespace:
         b_c = ac @ model.joint_child_binormal[k]
         c = half * (wp.dot(n_p, n_c) + wp.dot(b_p, b_c))
         s = half * (wp.dot(b_p, n_c) - wp.dot(n_p, b_c))
+        return c, s
+
+    @wp.func
+    def coordinate(model: Model, qp: vec12, qc: vec12, k: int):
+        """θ(q) ∈ (−π, π]: right-hand rotation of child vs parent about x1 − x0."""
+        c, s = alignment(model, qp, qc, k)
         return atan2(s, c)
 
     @wp.func
@@ -149,7 +156,7 @@ def build(t) -> SimpleNamespace:
         return dropped
 
     return SimpleNamespace(energy=energy, gradients=gradients, state_blocks=state_blocks,
-                           gap=gap, coordinate=coordinate,
+                           gap=gap, coordinate=coordinate, alignment=alignment,
                            coordinate_gradients=coordinate_gradients,
                            apply_command=apply_command, lever_arm_force=lever_arm_force)
 

@@ -49,6 +49,7 @@ def build(t) -> SimpleNamespace:
     assemble, solve, solve_factored = apart(t, t.assemble), apart(t, t.solve), t.solve_factored
     incremental_potential = apart(t, t.incremental_potential)
     step_bound, touching, cover = apart(t, t.step_bound), apart(t, t.touching), t.cover
+    prepare_limit_reach = t.prepare_limit_reach
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
 
     @wp.func
@@ -309,6 +310,7 @@ def build(t) -> SimpleNamespace:
         q = state.q
         n_free = model.elim_order.shape[0]
         dt = model.dt
+        prepare_limit_reach(model, state, scratch, env)     # before any energy of this step
         for k in range(n_free):
             b = model.elim_order[k]
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)

@@ -33,6 +33,7 @@ def build(t) -> SimpleNamespace:
     coordinate_terms, limit_secant = t.coordinate_terms, t.limit_secant
     limit_penetration = t.limit_penetration
     add_mimics = apart(t, t.add_mimics)      # out of line (physics.stages.out_of_line)
+    measure_turns, limit_idle = t.measure_turns, t.limit_idle
     # each out of line (physics.stages.out_of_line)
     add_contact, add_friction = apart(t, t.add_contact), apart(t, t.add_friction)
     add_damping = apart(t, t.add_damping)
@@ -126,7 +127,7 @@ def build(t) -> SimpleNamespace:
         if hessian != 0:
             add_nonlinear_blocks(model, q, scratch, env, k)
         untrusted = int(0)
-        if model.joint_state_terms[k] != 0:
+        if model.joint_state_terms[k] != 0 and limit_idle(model, scratch, env, k) == 0:
             untrusted = add_coordinate_terms(model, state, control, q, scratch, env, k, bdf2,
                                              hessian)
         return untrusted
@@ -157,6 +158,7 @@ def build(t) -> SimpleNamespace:
                 if model.state_coupling != 0:
                     scratch.offdiag_set[env, b] = 0     # model.elim_offdiag until a term adds
         untrusted = int(0)
+        measure_turns(model, q, scratch, env)
         for k in range(model.joint_parent.shape[0]):
             if model.joint_has_free[k] == 0:
                 continue

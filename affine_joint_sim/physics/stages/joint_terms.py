@@ -22,6 +22,7 @@ committed coordinate plus the in-step increment, so limits and targets work acro
 Like the joint energy, limit and drive carry no dt²: their physical stiffness is ∝ 1/dt².
 """
 
+import math
 from types import SimpleNamespace
 
 import warp as wp
@@ -33,7 +34,7 @@ SLIP_SPEED = 1e-3   # rad/s | m/s: below it a joint's friction is viscous (IPC's
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the coordinate terms for the types namespace ``t``."""
-    vec12, scalar = t.vec12, t.scalar
+    vec12, scalar, mat33 = t.vec12, t.scalar, t.mat33
     zero, half, one, three = t.zero, t.half, t.one, t.three
     minus_one = scalar(-1.0)
     six = scalar(6.0)
@@ -170,5 +171,74 @@ def build(t) -> SimpleNamespace:
                 d2 += gain
         return e, d1, d2
 
+    Scratch = t.structs.Scratch
+    affine, revolute_alignment = t.affine, t.revolute_alignment
+    pi_ = scalar(math.pi)
+    root_two = scalar(math.sqrt(2.0))
+    slack = scalar(1.0e-6)
+
+    @wp.func
+    def frobenius(a: mat33):
+        """‖a‖_F."""
+        total = zero
+        for r in range(3):
+            for c in range(3):
+                total += a[r, c] * a[r, c]
+        return wp.sqrt(total)
+
+    @wp.func
+    def prepare_limit_reach(model: Model, state: State, scratch: Scratch, env: int):
+        """At the start of Newton, for every joint_limit_alone k: the largest D (see
+        ``limit_idle``) for which its coordinate provably stays inside its limits this step,
+        into scratch.limit_reach (≤ 0: none). With v = (c, s) its alignment (θ = atan2(s, c);
+        ``revolute_alignment``), every iterate's |v − v_n| ≤ √2 D, so by the Dunkl–Williams
+        inequality its angle from v_n is at most π √2 D / (2|v_n| − √2 D): at most the room
+        r = min(x_n − l, u − x_n) (less rounding) for D ≤ √2 r |v_n| / (π + r)."""
+        if model.limits_alone != 0:
+            for b in range(model.body_fixed.shape[0]):
+                scratch.body_size[env, b] = frobenius(affine(scratch.q_n[env, b]))
+            for k in range(model.joint_parent.shape[0]):
+                if model.joint_limit_alone[k] != 0:
+                    x = state.joint_coordinate[env, k]
+                    room = wp.min(x - model.joint_limit_lower[k],
+                                  model.joint_limit_upper[k] - x) - slack * (one + wp.abs(x))
+                    reach = -one
+                    if room > zero:
+                        c, s = revolute_alignment(model, scratch.q_n, env, k)
+                        reach = (one - slack) * root_two * room * wp.sqrt(c * c + s * s) / (
+                            pi_ + room)
+                    scratch.limit_reach[env, k] = reach
+
+    @wp.func
+    def measure_turns(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
+        """‖A − A(q_n)‖_F of every free body at q into scratch.body_turn (where the model has
+        joint_limit_alone joints; fixed bodies keep 0)."""
+        if model.limits_alone != 0:
+            for k in range(model.elim_order.shape[0]):
+                b = model.elim_order[k]
+                scratch.body_turn[env, b] = frobenius(affine(q[env, b])
+                                                      - affine(scratch.q_n[env, b]))
+
+    @wp.func
+    def limit_idle(model: Model, scratch: Scratch, env: int, k: int):
+        """1 if joint k is a joint_limit_alone whose coordinate provably stays inside its limits
+        at the iterate of the last ``measure_turns`` (its limit's φ, φ', φ'' are exact zeros
+        there: skipping it changes no bit): D = t_P (s_C + t_C) + s_P t_C ≤ its limit_reach,
+        s = ‖A(q_n)‖_F and t = ‖A − A(q_n)‖_F of its bodies, each of |Δc|, |Δs| being at most D
+        (c and s are sums of products of A_P and A_C columns with unit rest vectors)."""
+        idle = int(0)
+        if model.joint_limit_alone[k] != 0:
+            reach = scratch.limit_reach[env, k]
+            p = model.joint_parent[k]
+            c = model.joint_child[k]
+            t_p = scratch.body_turn[env, p]
+            t_c = scratch.body_turn[env, c]
+            bound = t_p * (scratch.body_size[env, c] + t_c) + scratch.body_size[env, p] * t_c
+            if reach > zero and bound <= reach:
+                idle = 1
+        return idle
+
     return SimpleNamespace(joint_coordinate=joint_coordinate, coordinate_terms=coordinate_terms,
-                           limit_penetration=limit_penetration, limit_secant=limit_secant)
+                           limit_penetration=limit_penetration, limit_secant=limit_secant,
+                           prepare_limit_reach=prepare_limit_reach, measure_turns=measure_turns,
+                           limit_idle=limit_idle)

@@ -30,6 +30,7 @@ def build(t) -> SimpleNamespace:
     contact_energy, friction_energy = apart(t, t.contact_energy), apart(t, t.friction_energy)
     damping_energy = apart(t, t.damping_energy)
     mimic_energy = apart(t, t.mimic_energy)
+    measure_turns, limit_idle = t.measure_turns, t.limit_idle
 
     @wp.func
     def incremental_potential(model: Model, state: State, control: Control,
@@ -44,10 +45,11 @@ def build(t) -> SimpleNamespace:
             energy += half * kinetic_scale * wp.dot(
                 x, mass_times(model.body_mass[b], model.body_second_moment[b], x))
             energy += dt2 * model.body_ortho_coeff[b] * ortho_energy(affine(q[env, b]))
+        measure_turns(model, q, scratch, env)
         for k in range(model.joint_parent.shape[0]):
             if model.joint_has_free[k] != 0:
                 energy += joint_energy(model, q, env, k)
-                if model.joint_state_terms[k] != 0:
+                if model.joint_state_terms[k] != 0 and limit_idle(model, scratch, env, k) == 0:
                     e, d1, d2 = coordinate_terms(model, state, control, env, k,
                                                  joint_coordinate(model, q, state, env, k), bdf2)
                     energy += e
