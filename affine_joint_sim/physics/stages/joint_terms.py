@@ -34,7 +34,7 @@ SLIP_SPEED = 1e-3   # rad/s | m/s: below it a joint's friction is viscous (IPC's
 
 def build(t) -> SimpleNamespace:
     """Warp functions of the coordinate terms for the types namespace ``t``."""
-    vec12, scalar, mat33 = t.vec12, t.scalar, t.mat33
+    vec12, scalar = t.vec12, t.scalar
     zero, half, one, three = t.zero, t.half, t.one, t.three
     minus_one = scalar(-1.0)
     six = scalar(6.0)
@@ -178,15 +178,6 @@ def build(t) -> SimpleNamespace:
     slack = scalar(1.0e-6)
 
     @wp.func
-    def frobenius(a: mat33):
-        """‖a‖_F."""
-        total = zero
-        for r in range(3):
-            for c in range(3):
-                total += a[r, c] * a[r, c]
-        return wp.sqrt(total)
-
-    @wp.func
     def prepare_limit_reach(model: Model, state: State, scratch: Scratch, env: int):
         """At the start of Newton, for every joint_limit_alone k: the largest D (see
         ``limit_idle``) for which its coordinate provably stays inside its limits this step,
@@ -196,7 +187,8 @@ def build(t) -> SimpleNamespace:
         r = min(x_n − l, u − x_n) (less rounding) for D ≤ √2 r |v_n| / (π + r)."""
         if model.limits_alone != 0:
             for b in range(model.body_fixed.shape[0]):
-                scratch.body_size[env, b] = frobenius(affine(scratch.q_n[env, b]))
+                a = affine(scratch.q_n[env, b])
+                scratch.body_size[env, b] = wp.sqrt(wp.ddot(a, a))
             for k in range(model.joint_parent.shape[0]):
                 if model.joint_limit_alone[k] != 0:
                     x = state.joint_coordinate[env, k]
@@ -216,8 +208,8 @@ def build(t) -> SimpleNamespace:
         if model.limits_alone != 0:
             for k in range(model.elim_order.shape[0]):
                 b = model.elim_order[k]
-                scratch.body_turn[env, b] = frobenius(affine(q[env, b])
-                                                      - affine(scratch.q_n[env, b]))
+                turn = affine(q[env, b]) - affine(scratch.q_n[env, b])
+                scratch.body_turn[env, b] = wp.sqrt(wp.ddot(turn, turn))
 
     @wp.func
     def limit_idle(model: Model, scratch: Scratch, env: int, k: int):
