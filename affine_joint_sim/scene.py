@@ -22,7 +22,7 @@ from affine_joint_sim.schema_base import (Number, OneOf, PositiveFloat, StrictMo
 
 __all__ = ['Scene', 'SceneSettings', 'SceneError', 'StrictModel', 'Body', 'Joint', 'Limit',
            'Drive', 'Mimic', 'Shape', 'Solver', 'Orientation', 'Frame', 'Visual', 'Geometry',
-           'Mesh', 'Sensor', 'SENSOR_TYPES', 'looks_like_urdf', 'topic_token',
+           'Mesh', 'Sensor', 'SENSOR_TYPES', 'Robot', 'looks_like_urdf', 'topic_token',
            'validation_report']
 
 # Names are the user's (URDF names as they are): printable, no whitespace. Per-joint topic
@@ -311,6 +311,22 @@ class Solver(StrictModel):
 SceneName = Annotated[str, Field(min_length=1)]
 
 
+class Robot(StrictModel):
+    """One robot of a scene of several (README.md#several-robots): its bodies, joints and
+    frames are the scene's entries named ``<name>/...`` (a URDF's link and joint names under
+    that prefix, which is also its links' frame prefix on /tf); its topics (``joint_states``,
+    ``joint_commands``, the command arrays, per-joint topics, ``robot_description``) go under
+    ``namespace`` (relative to the node's namespace), its joints named there as in its URDF."""
+
+    name: Annotated[str, Field(pattern=r'^[A-Za-z][A-Za-z0-9_]*$')]
+    namespace: Annotated[str, Field(pattern=r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')]
+
+    @property
+    def prefix(self) -> str:
+        """The prefix of its entries' names in the scene: ``<name>/``."""
+        return self.name + '/'
+
+
 class SceneSettings(StrictModel):
     """A scene's settings beside its bodies and joints: ``name``, time step ``dt`` [s],
     ``gravity`` [m/s², world frame] and ``solver``. A scene YAML gives them at its top level,
@@ -348,12 +364,21 @@ class Scene(SceneSettings):
     # what viewers draw; empty: every body's shape (a URDF scene lists its links' visuals)
     visuals: list[Visual] = []
     sensors: list[Sensor] = []          # README.md#sensors
+    robots: list[Robot] = []            # README.md#several-robots; empty: one robot or none
     _robot_description: str | None = PrivateAttr(default=None)
+    _robot_descriptions: dict[str, str] = PrivateAttr(default_factory=dict)
 
     @property
     def robot_description(self) -> str | None:
-        """The URDF text the scene was built from (None for a scene written as YAML)."""
+        """The URDF text the scene was built from (None for a scene written as YAML or
+        listing several robots)."""
         return self._robot_description
+
+    @property
+    def robot_descriptions(self) -> dict[str, str]:
+        """Each robot's URDF text by robot name (a scene loaded from ``robots:`` entries with
+        ``urdf:``; empty otherwise)."""
+        return self._robot_descriptions
 
     @classmethod
     def load(cls, path, **overrides) -> 'Scene':
@@ -421,6 +446,12 @@ class Scene(SceneSettings):
             data.update(overrides)
         if isinstance(data, dict) and 'urdf' in data:
             return cls._from_urdf_entry(data, base_dir, source)
+        if isinstance(data, dict) and _lists_urdf_robots(data.get('robots')):
+            from affine_joint_sim.urdf.robots import robots_scene_data
+            data, descriptions = robots_scene_data(data, Path(base_dir or '.'), source)
+            scene = cls.from_dict(data, source=source)
+            scene._robot_descriptions = descriptions
+            return scene
         _find_collision_meshes(data, Path(base_dir or '.'))
         return cls.from_dict(data, source=source)
 
@@ -472,7 +503,9 @@ class Scene(SceneSettings):
                 problems.append((f'joints[{i}].child', 'parent and child must differ'))
             if joint.x0 is not None and math.dist(joint.x0, joint.x1) < 1e-9:
                 problems.append((f'joints[{i}].x1', 'x1 must differ from x0 (the axis is x1 - x0)'))
-        problems += _token_clashes([j.name for j in self.joints])
+        problems += self._robot_problems()
+        problems += _token_clashes([(self.robot_of(j.name), self.local_name(j.name))
+                                    for j in self.joints])
         problems += self._mimic_problems()
         problems += _duplicates('frames', [f.name for f in self.frames])
         frame_names = [f.name for f in self.frames]
@@ -493,6 +526,34 @@ class Scene(SceneSettings):
                                      f'{valid}'))
         if not problems:
             problems += self._closed_loops()
+        return problems
+
+    def robot_of(self, name: str) -> Robot | None:
+        """The robot whose entry (body, joint or frame) ``name`` is, or None."""
+        return next((r for r in self.robots if name.startswith(r.prefix)), None)
+
+    def local_name(self, name: str) -> str:
+        """An entry's name within its robot (its URDF name), or ``name`` outside robots."""
+        robot = self.robot_of(name)
+        return name if robot is None else name[len(robot.prefix):]
+
+    def _robot_problems(self) -> list[tuple[str, str]]:
+        """Robots: unique names and namespaces, each owning at least one body."""
+        problems = _duplicates('robots', [r.name for r in self.robots])
+        seen = {}
+        for i, robot in enumerate(self.robots):
+            if robot.namespace in seen:
+                problems.append((f'robots[{i}].namespace', f'{robot.namespace!r} is also '
+                                 f'robots[{seen[robot.namespace]}]\'s: each robot needs its own'))
+            seen.setdefault(robot.namespace, i)
+            if not any(b.name.startswith(robot.prefix) for b in self.bodies):
+                problems.append((f'robots[{i}].name', f'no body is named {robot.prefix}...: a '
+                                 "robot's bodies are named <robot>/<link>"))
+        for i, joint in enumerate(self.joints if self.robots else []):
+            if joint_kind(joint.type).command is not None and self.robot_of(joint.name) is None:
+                problems.append((f'joints[{i}].name', f'{joint.name!r} is no robot\'s: in a '
+                                 'scene of several robots each moving joint is one robot\'s, '
+                                 'named <robot>/<joint>'))
         return problems
 
     def _mimic_problems(self) -> list[tuple[str, str]]:
@@ -652,15 +713,22 @@ def _duplicates(section: str, names: list[str]) -> list[tuple[str, str]]:
     return problems
 
 
-def _token_clashes(names: list[str]) -> list[tuple[str, str]]:
-    """Joint names that would share a per-joint topic (``a-b`` and ``a_b``)."""
+def _lists_urdf_robots(robots) -> bool:
+    """Whether a scene dict's ``robots`` lists URDF files to load (entries with ``urdf:``),
+    not the robots of a loaded scene (``Robot``)."""
+    return isinstance(robots, list) and any(isinstance(r, dict) and 'urdf' in r for r in robots)
+
+
+def _token_clashes(names: list[tuple]) -> list[tuple[str, str]]:
+    """Joint names (robot, name within it) that would share a per-joint topic (``a-b`` and
+    ``a_b`` of one robot); the same name in two robots is two topics in two namespaces."""
     seen, problems = {}, []
-    for i, name in enumerate(names):
-        token = topic_token(name)
-        if token in seen and names[seen[token]] != name:
-            problems.append((f'joints[{i}].name', f'{name!r} and {names[seen[token]]!r} '
-                             f'(joints[{seen[token]}]) share the topic token {token!r}'))
-        seen.setdefault(token, i)
+    for i, (robot, name) in enumerate(names):
+        key = (None if robot is None else robot.name, topic_token(name))
+        if key in seen and names[seen[key]][1] != name:
+            problems.append((f'joints[{i}].name', f'{name!r} and {names[seen[key]][1]!r} '
+                             f'(joints[{seen[key]}]) share the topic token {key[1]!r}'))
+        seen.setdefault(key, i)
     return problems
 
 

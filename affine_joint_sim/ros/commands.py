@@ -32,12 +32,18 @@ class CommandBuffer:
             joint is enabled).
         mimics: each mimic joint's leader, by name: a command to a mimic joint is dropped
             with that reason (it follows its leader).
+        prefix: what the scene's names of these joints start with (one robot of several:
+            ``<robot>/``): commands name them without it, the stepper with it.
+        scene_index: the scene indices of ``joint_names`` (to read their torques on a reset).
     """
 
     def __init__(self, joint_names: list[str], command_timeout: float = 0.0,
                  array_joints: list[str] | None = None, drive_joints=(), effort_bounds=None,
-                 enabled=None, damped_joints=(), mimics=None):
+                 enabled=None, damped_joints=(), mimics=None, prefix: str = '',
+                 scene_index=None):
         self.joint_names = list(joint_names)
+        self.prefix = prefix
+        self.scene_index = scene_index
         self.mimics = dict(mimics or {})
         self._index = {name: k for k, name in enumerate(self.joint_names)}
         self.command_timeout = command_timeout
@@ -54,19 +60,31 @@ class CommandBuffer:
 
     @classmethod
     def for_stepper(cls, sim, command_timeout: float = 0.0,
-                    array_joints: list[str] | None = None) -> 'CommandBuffer':
-        """The buffer of a Stepper's command joints, with its drives and its step bounds (none
-        for a joint whose effort_limit is within its bound: the stepper clamps every command
-        to that limit, as ros2_control and Gazebo do, so none is too large)."""
-        index = sim.command_joint_index
+                    array_joints: list[str] | None = None, robot=None) -> 'CommandBuffer':
+        """The buffer of a Stepper's command joints (``robot``: those of that ``scene.Robot``,
+        named as in its URDF; None: every one), with its drives and its step bounds (none for
+        a joint whose effort_limit is within its bound: the stepper clamps every command to
+        that limit, as ros2_control and Gazebo do, so none is too large)."""
+        scene = sim.scene
+        prefix = '' if robot is None else robot.prefix
+        index = np.array([k for k in sim.command_joint_index
+                          if robot in (None, scene.robot_of(scene.joints[k].name))],
+                         dtype=np.intp)
         bounds = sim.step_effort_bounds[index]
-        limits = np.array([sim.scene.joints[k].effort_limit for k in index])
-        return cls(sim.command_joint_names, command_timeout, array_joints=array_joints,
-                   drive_joints=sim.drive_joint_names,
+        limits = np.array([scene.joints[k].effort_limit for k in index])
+
+        def own(names):
+            return [n[len(prefix):] for n in names if robot in (None, scene.robot_of(n))]
+
+        return cls(own(scene.joints[k].name for k in index), command_timeout,
+                   array_joints=array_joints, drive_joints=own(sim.drive_joint_names),
                    effort_bounds=np.where(limits <= bounds, np.inf, bounds),
-                   enabled=[sim.scene.joints[k].enabled for k in index],
-                   damped_joints=sim.damped_joint_names,
-                   mimics={j.name: j.mimic.joint for j in sim.scene.joints if j.mimic})
+                   enabled=[scene.joints[k].enabled for k in index],
+                   damped_joints=own(sim.damped_joint_names),
+                   mimics={n[len(prefix):]: j.mimic.joint[len(prefix):]
+                           for j in scene.joints if j.mimic
+                           for n in own([j.name])},
+                   prefix=prefix, scene_index=index)
 
     def reset(self, torques, sim_time: float = 0.0) -> None:
         """Forget pending commands; ``torques`` [N·m] (the scene's) count as commanded at
@@ -228,24 +246,26 @@ class CommandBuffer:
 
         Returns one notice per joint whose torque just timed out (said once per silence).
         """
+        prefix = self.prefix
         if (len(self._torque) == len(self.joint_names)      # a whole array: one call
+                and not prefix
                 and getattr(stepper, 'command_joint_names', None) == self.joint_names):
             stepper.set_torques(np.array([self._torque[k] for k in range(len(self._torque))]))
         else:
             for k, value in self._torque.items():
-                stepper.set_torque(self.joint_names[k], value)
+                stepper.set_torque(prefix + self.joint_names[k], value)
         for k, value in self._torque.items():
             self._last_command[k] = sim_time
             self._held[k] = value != 0.0
         for k, flag in self._enabled.items():
-            stepper.set_enabled(self.joint_names[k], flag)
+            stepper.set_enabled(prefix + self.joint_names[k], flag)
             self._on[k] = flag
             if flag:
                 self._disabled_said.discard(k)
         for name, target in self._target.items():
-            stepper.set_target(name, target)
+            stepper.set_target(prefix + name, target)
         for name, speed in self._speed.items():
-            stepper.set_velocity_target(name, speed)
+            stepper.set_velocity_target(prefix + name, speed)
         self._torque.clear()
         self._enabled.clear()
         self._target.clear()
@@ -257,7 +277,7 @@ class CommandBuffer:
             silent = sim_time - self._last_command[k]
             if self._held[k] and silent > self.command_timeout + _TIME_EPS:
                 self._held[k] = False
-                stepper.set_torque(name, 0.0)
+                stepper.set_torque(prefix + name, 0.0)
                 notices.append(f'joint {name!r}: no torque command for {silent:.3f} s '
                                f'(command_timeout {self.command_timeout} s): torque set to 0')
         return notices

@@ -21,12 +21,18 @@ class JointStateFiller:
     Args:
         sim: the Stepper.
         msg_class: the JointState class (``topics['joint_states'].msg_class``).
+        robot: one ``scene.Robot`` of several: its joints only, named as in its URDF; None:
+            every joint of the scene.
     """
 
-    def __init__(self, sim, msg_class):
+    def __init__(self, sim, msg_class, robot=None):
+        scene = sim.scene
         moving = np.array([k for k, kind in enumerate(sim.joint_types)
-                           if joint_kind(kind).command is not None], dtype=np.intp)
-        self.names = [sim.joint_names[k] for k in moving]
+                           if joint_kind(kind).command is not None
+                           and robot in (None, scene.robot_of(sim.joint_names[k]))],
+                          dtype=np.intp)
+        prefix = '' if robot is None else robot.prefix
+        self.names = [sim.joint_names[k][len(prefix):] for k in moving]
         # without fixed joints every array is sent as it is (no copy per step)
         self.index = None if len(moving) == len(sim.joint_types) else moving
         self.wrapped = np.array([j.angle_mode == 'wrapped' and j.type == 'revolute'

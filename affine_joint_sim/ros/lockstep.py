@@ -12,7 +12,8 @@ answering the state again when it is republished, or its lost answer resent) app
 state's step, the latest command winning, but counts once: it is counted as a repeat, so one
 controller answering twice never stands in for another whose answer is still on its way. An
 answer from a source beyond ``publishers`` (more controllers than ``publishers``) also applies
-to that step and is counted as surplus.
+to that step and is counted as surplus. In a scene of several robots ``publishers`` counts
+each robot's controllers: a step waits for that many answers on every robot's topics.
 
 While it waits, the gate says when to publish the waiting state again and when to log that it
 is waiting. A copy goes out only to reach a controller that does not have the state: one that
@@ -34,16 +35,20 @@ class LockstepGate:
     """Answers counted against the state the node waits on.
 
     Args:
-        publishers: answers a step waits for (one per controller in the loop, >= 1).
+        publishers: answers a step waits for (one per controller in the loop, >= 1), from
+            each of ``robots``.
         republish_every: wall seconds [s] without all answers after which a waiting state is
             published again when no controller joined (its answer may have been lost).
         report_every: wall seconds [s] between two "still waiting" reports.
         clock: wall clock in seconds (monotonic); injectable for tests.
+        robots: the robots whose controllers answer (the node's robot faces; an answer says
+            which robot it commands: 0 … robots − 1).
     """
 
     def __init__(self, publishers: int = 1, republish_every: float = 2.0,
-                 report_every: float = 2.0, clock=time.monotonic):
+                 report_every: float = 2.0, clock=time.monotonic, robots: int = 1):
         self.publishers = publishers
+        self.robots = robots
         self.republish_every = republish_every
         self.report_every = report_every
         self.clock = clock
@@ -51,7 +56,7 @@ class LockstepGate:
         self.stale = 0          # commands dropped for answering another state, since start
         self.surplus = 0        # answers from sources beyond ``publishers``, since start
         self.repeats = 0        # second answers from one source to one state, since start
-        self._sources = set()   # sources that answered the waiting state
+        self._sources = set()   # (robot, source) that answered the waiting state
         self._matched = None    # matched counts when it was last published (None: unknown)
         self._since = self._published_at = self._reported_at = clock()
 
@@ -65,32 +70,36 @@ class LockstepGate:
         self._matched = matched
         self._since = self._published_at = self._reported_at = self.clock()
 
-    def answer(self, stamp_ns: int, source) -> str:
+    def answer(self, stamp_ns: int, source, robot: int = 0) -> str:
         """Count a command stamped ``stamp_ns`` (0: unstamped) from ``source`` (hashable: the
-        topic and the joints it commands). Returns 'stale' if it answers another state (drop
-        it), 'repeat' if ``source`` answered this state already, 'surplus' if it is a source
-        beyond ``publishers``, else 'counted'; all but 'stale' apply to the waiting state."""
+        topic and the joints it commands) for ``robot``. Returns 'stale' if it answers
+        another state (drop it), 'repeat' if ``source`` answered this state already,
+        'surplus' if it is a source beyond ``publishers`` for that robot, else 'counted'; all
+        but 'stale' apply to the waiting state."""
         if stamp_ns not in (0, self.stamp_ns):
             self.stale += 1
             return 'stale'
-        if source in self._sources:
+        if (robot, source) in self._sources:
             self.repeats += 1
             return 'repeat'
-        self._sources.add(source)
-        if len(self._sources) > self.publishers:
+        self._sources.add((robot, source))
+        if self._answers_for(robot) > self.publishers:
             self.surplus += 1
             return 'surplus'
         return 'counted'
 
+    def _answers_for(self, robot: int) -> int:
+        return sum(1 for r, _ in self._sources if r == robot)
+
     @property
     def answers(self) -> int:
-        """Sources that answered the waiting state."""
+        """Sources that answered the waiting state (all robots)."""
         return len(self._sources)
 
     @property
     def released(self) -> bool:
-        """Whether the next step may be computed."""
-        return self.answers >= self.publishers
+        """Whether the next step may be computed: every robot has its answers."""
+        return all(self._answers_for(r) >= self.publishers for r in range(self.robots))
 
     def republish_due(self, matched: tuple[int, int]) -> bool:
         """Whether the waiting state should be published again now, given the counts matched

@@ -15,7 +15,8 @@ class SimLoop:
 
     Args:
         sim: the Stepper.
-        commands: the CommandBuffer its commands go through.
+        commands: the CommandBuffer its commands go through (``ros.robots.RobotCommands``
+            for several robots).
         pacer: the realtime schedule (Pacer).
         gate: the lockstep gate (LockstepGate).
     """
@@ -41,7 +42,7 @@ class SimLoop:
         if self.sim.step_count:
             self.epoch_ns += self.sim_time_ns + self.dt_ns
         self.sim.reset()
-        self.commands.reset(self.sim.torques[self.sim.command_joint_index])
+        self.commands.reset(self.sim.torques[self.commands.scene_index])
         self.pacer.anchor(0.0)
         self.pacer.restart_window(0.0)
 

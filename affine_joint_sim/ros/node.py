@@ -34,13 +34,13 @@ from std_srvs.srv import SetBool, Trigger
 from affine_joint_sim.physics.host.joint_kinds import joint_kind
 from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.collector import CollectorPauses, settle
-from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.lockstep import LockstepGate
 from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.recording import RunRecording
+from affine_joint_sim.ros.robots import RobotCommands
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
 from affine_joint_sim.ros.sensor_messages import SensorMessages
 from affine_joint_sim.ros.simulation_services import SimulationServices
@@ -123,13 +123,16 @@ class SimNode(Node):
             raise ConfigError(f"parameter 'device': {exc}") from None
         for warning in loading:
             self.get_logger().warning(str(warning.message))
-        self.commands = CommandBuffer.for_stepper(
+        self.commands = RobotCommands(
             self.sim, self.config['command_timeout'],
             array_joints=command_joints(self.config['command_joints'], self.sim))
+        # the robots whose controllers answer in lockstep: those with joints to command
+        self._answering = [k for k, b in enumerate(self.commands.buffers) if b.joint_names]
         self.pacer = Pacer(self.config['real_time_factor'])
         self.topics = load_topics()
         self.paused = False
-        self.gate = LockstepGate(self.config['lockstep_publishers'])
+        self.gate = LockstepGate(self.config['lockstep_publishers'],
+                                 robots=max(len(self._answering), 1))
         self._answer_subs = {}          # resolved answer topic name -> its subscription
         self._warned_publishers = None  # matched publisher count last warned about (lockstep)
         self.oversized = 0              # command messages dropped for max_command_bytes
@@ -151,8 +154,11 @@ class SimNode(Node):
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
             self._publish_and_record(self.scene_pub, scene_msg, 0)
-            self._publish_and_record(self.description_pub, self.topics[
-                'robot_description'].msg_class(data=robot_description(self.scene)), 0)
+            description = self.topics['robot_description'].msg_class
+            self._publish_and_record(self.description_pub, description(
+                data=robot_description(self.scene)), 0)
+            for publisher, text in self._robot_descriptions:
+                self._publish_and_record(publisher, description(data=text), 0)
             self.viz.publish_static(0)
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
@@ -204,9 +210,13 @@ class SimNode(Node):
         return config
 
     def _make_interfaces(self):
-        self.state_pub = self._publisher('joint_states')
+        faces = self.commands.faces
+        # per robot (one for a scene without robots): its joint_states and their filler
+        self.state_pubs = [self._publisher('joint_states', namespace=face.namespace)
+                           for face in faces]
+        self._joint_states = [JointStateFiller(self.sim, self.topics['joint_states'].msg_class,
+                                               face.robot) for face in faces]
         self.clock_pub = self._publisher('clock')
-        self._joint_states = JointStateFiller(self.sim, self.topics['joint_states'].msg_class)
         self._clock_msg = self.topics['clock'].msg_class()
         # per sensor of the scene: sensors/<name>, just before joint_states (none: no cost)
         self._sensor_msgs = SensorMessages(self.scene, self.topics)
@@ -215,8 +225,12 @@ class SimNode(Node):
         # Latched: the scene as run, every default spelled out, for late joiners and bags.
         self.scene_pub = self._publisher('scene')
         self.events_pub = self._publisher('events')
-        # Latched: the scene as a URDF (its own, or generated), for URDF viewers.
+        # Latched: the scene as a URDF (its own, or generated), for URDF viewers; and each of
+        # several robots' own URDF under its namespace.
         self.description_pub = self._publisher('robot_description')
+        self._robot_descriptions = [
+            (self._publisher('robot_description', namespace=face.namespace), face.description)
+            for face in faces if face.robot is not None and face.description is not None]
         self.viz = VizPublisher(self._publisher, self.sim, self.config['viz_rate'],
                                 self.config['frame_id'], self._publish_and_record,
                                 lambda: self.recording.active)
@@ -224,11 +238,15 @@ class SimNode(Node):
             self.get_logger().warning('no /tf or /tf_static: tf2_msgs is not built in this '
                                       'environment (make venv builds it where cmake and a C++ '
                                       'compiler are)')
-        for joint, kind in zip(self.sim.joint_names, self.sim.joint_types):
-            for key in JOINT_COMMAND_KEYS.get(joint_kind(kind).command, ()):
-                self._subscribe(key, joint)
-        for key in ANSWER_KEYS:
-            self._subscribe(key, None)
+        for robot, face in enumerate(faces):
+            buffer = self.commands.buffers[robot]
+            for joint, k in zip(buffer.joint_names, buffer.scene_index):
+                for key in JOINT_COMMAND_KEYS.get(joint_kind(self.sim.joint_types[k]).command,
+                                                  ()):
+                    self._subscribe(key, joint, robot)
+            if robot in self._answering or not self._answering:
+                for key in ANSWER_KEYS:
+                    self._subscribe(key, None, robot)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
@@ -239,15 +257,17 @@ class SimNode(Node):
                                       'built in this environment (make venv builds it where '
                                       'cmake and a C++ compiler are)')
 
-    def _publisher(self, key: str, item: str | None = None, on_matched=None):
+    def _publisher(self, key: str, item: str | None = None, on_matched=None,
+                   namespace: str = ''):
         """The publisher of topic ``key`` (topics.yaml; ``item``: the sensor of a per-sensor
-        topic), listed for the bag: every topic the node publishes is created here, so the
-        recorder knows it before its first message. ``on_matched(status)``: called (in the
-        callback thread) when a subscription matches or goes (``status.current_count``)."""
+        topic; ``namespace``: a robot's, ``RobotFace.namespace``), listed for the bag: every
+        topic the node publishes is created here, so the recorder knows it before its first
+        message. ``on_matched(status)``: called (in the callback thread) when a subscription
+        matches or goes (``status.current_count``)."""
         topic = self.topics[key]
         events = None if on_matched is None else PublisherEventCallbacks(matched=on_matched)
-        publisher = self.create_publisher(topic.msg_class, topic.name(item), topic.qos,
-                                          event_callbacks=events)
+        publisher = self.create_publisher(topic.msg_class, namespace + topic.name(item),
+                                          topic.qos, event_callbacks=events)
         self._bag_topics.append(BagTopic(publisher.topic_name, topic.type, topic.qos))
         return publisher
 
@@ -262,13 +282,16 @@ class SimNode(Node):
                               f'a valid ROS topic name in namespace {self.get_namespace()!r} '
                               f'({str(exc).splitlines()[0]}); use a shorter sensor name') from None
 
-    def _subscribe(self, key, joint):
-        """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command; in
-        lockstep, a message on an ANSWER_KEYS topic answers the state its stamp names (stale ones
-        are dropped before they are recorded or applied)."""
+    def _subscribe(self, key, joint, robot: int = 0):
+        """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command in
+        robot ``robot``'s buffer (``joint``: named as there); in lockstep, a message on an
+        ANSWER_KEYS topic answers the state its stamp names for that robot (stale ones are
+        dropped before they are recorded or applied)."""
         topic = self.topics[key]
+        commands = self.commands.buffers[robot]
         try:
-            name = self.resolve_topic_name(topic.name(joint))
+            name = self.resolve_topic_name(self.commands.faces[robot].namespace +
+                                           topic.name(joint))
         except _rclpy.RCLError as exc:     # e.g. longer than ROS allows (247 characters)
             raise ConfigError(f'joint {joint!r}: its topic {topic.name(joint)!r} is not a valid '
                               f'ROS topic name in namespace {self.get_namespace()!r} ({exc}); '
@@ -286,7 +309,7 @@ class SimNode(Node):
                 return
             msg = deserialize_message(raw, msg_class)
             with self._wake:
-                problem = self.commands.malformed(key, msg)
+                problem = commands.malformed(key, msg)
                 if problem is not None:       # answers no state, commands nothing
                     self.malformed += 1
                     self._reject(name, f'{problem} ({self.malformed} so far)', kind='malformed')
@@ -297,7 +320,8 @@ class SimNode(Node):
                         if header is not None else 0
                     joints = getattr(msg, 'name', None)      # arrays command every joint
                     source = (name, None if joints is None else frozenset(joints))
-                    verdict = self.gate.answer(stamp, source)
+                    verdict = self.gate.answer(stamp, source, self._answering.index(robot)
+                                               if robot in self._answering else 0)
                     if verdict == 'stale':
                         self._reject(name, f'a command stamped t = {stamp * 1e-9:.6f} s answers '
                                      f'no waiting state (the node waits on t = '
@@ -319,7 +343,7 @@ class SimNode(Node):
                         self._wake.notify()
                 self.taken += 1
                 self.recording.take(name, raw)
-                for problem in self.commands.take(key, joint, msg):
+                for problem in commands.take(key, joint, msg):
                     self._reject(name, problem)
 
         subscription = self.create_subscription(msg_class, name, receive, topic.qos, raw=True)
@@ -489,18 +513,21 @@ class SimNode(Node):
         if not again:
             self.gate.expect(self.loop.sim_time_ns, self._matched_counts()
                              if self.config['mode'] == 'lockstep' else None)
-        msg = self._joint_states.fill(self.sim, self.loop.sim_time_ns)
+        messages = [filler.fill(self.sim, self.loop.sim_time_ns)
+                    for filler in self._joint_states]
         if again:
-            self.state_pub.publish(msg)
+            for publisher, msg in zip(self.state_pubs, messages):
+                publisher.publish(msg)
             return
         t_ns = self.loop.bag_ns
         if self._sensor_msgs:
             for name, raw in self._sensor_msgs.fill(self.sim.sensors, self.loop.sim_time_ns):
                 self._publish_and_record(self.sensor_pubs[name], raw, t_ns)
-        self._publish_and_record(self.state_pub, msg, t_ns)
+        for publisher, msg in zip(self.state_pubs, messages):
+            self._publish_and_record(publisher, msg, t_ns)
         if self.config['publish_clock']:
             clock = self._clock_msg.clock
-            clock.sec, clock.nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
+            clock.sec, clock.nanosec = divmod(self.loop.sim_time_ns, 1_000_000_000)
             self._publish_and_record(self.clock_pub, self._clock_msg, t_ns)
         self.viz.publish(self.loop.sim_time_ns, t_ns)
         self.recording.flush_if_due()
@@ -535,7 +562,7 @@ class SimNode(Node):
     def _matched_counts(self) -> tuple[int, int]:
         """(subscriptions matched on joint_states, publishers matched on the answer topics):
         DDS's counts now (~3 µs)."""
-        return (self.state_pub.get_subscription_count(),
+        return (sum(p.get_subscription_count() for p in self.state_pubs),
                 sum(sub.get_publisher_count() for sub in self._answer_subs.values()))
 
     def _keep_lockstep_alive(self):
@@ -551,7 +578,7 @@ class SimNode(Node):
         matched, names, mismatched = publishers
         why = (f'{matched} publisher(s) matched (nodes: {names}), ' if matched else
                'no publisher is matched, ') + (
-            f'{self.gate.answers} of {self.gate.publishers} answers so far')
+            f"{self.gate.answers} of {self.gate.publishers * self.gate.robots} answers so far")
         self.get_logger().warning(
             f'lockstep: waiting {waited:.1f} s for an answer on {", ".join(self._answer_subs)} '
             f'to the state at t = {self.gate.stamp_ns * 1e-9:.6f} s: {why}{mismatched}')
@@ -585,20 +612,23 @@ class SimNode(Node):
         when the node publishes the state again, ``republish_every`` without answers).
         ``publishers``: ``_answer_publishers()`` if the caller has it already."""
         count, names, mismatched = publishers or self._answer_publishers()
-        expected = self.gate.publishers
+        gate = self.gate
+        expected = gate.publishers * gate.robots
         if count == expected or count == self._warned_publishers or (count == 0 and expected):
             return
         self._warned_publishers = count
         topics = ', '.join(self._answer_subs)
+        setting = f'lockstep_publishers is {gate.publishers}' + (
+            f' per robot ({gate.robots} robots)' if gate.robots > 1 else '')
         if count > expected:
             self.get_logger().warning(
                 f'lockstep: {count} publishers on {topics} (nodes: {names}) but '
-                f'lockstep_publishers is {expected}: a step goes on the first {expected} '
+                f'{setting}: a step goes on the first {expected} '
                 'answer(s); set lockstep_publishers to the number of controllers for a '
                 'deterministic loop')
         else:
             self.get_logger().warning(
-                f'lockstep: lockstep_publishers is {expected} but {count} publisher(s) are '
+                f'lockstep: {setting} but {count} publisher(s) are '
                 f'matched on {topics} (nodes: {names}){mismatched}: each step waits for answers '
                 f'that may not come and crawls at the {self.gate.republish_every:g} s republish; '
                 'set lockstep_publishers to the number of controllers')
@@ -678,7 +708,8 @@ class SimNode(Node):
             raise failure[0]
         if not self.stop_requested.is_set():
             # A run that ends by itself delivers its last state before the node goes.
-            self.state_pub.wait_for_all_acked(Duration(seconds=1.0))
+            for publisher in self.state_pubs:
+                publisher.wait_for_all_acked(Duration(seconds=1.0))
 
     def summary(self) -> dict:
         """Figures of the whole run, resets included: steps, simulated and wall time, steps/s,

@@ -49,8 +49,8 @@ PARAMETERS = {
     'real_time_factor': ParameterSpec(1.0, 'simulated seconds per wall second in realtime mode',
                                       minimum=0.0, exclusive=True, live=True),
     'lockstep_publishers': ParameterSpec(1, 'lockstep: answers to each state (one per '
-                                         'controller) before the next step', minimum=1,
-                                         live=True),
+                                         'controller; per robot in a scene of several) '
+                                         'before the next step', minimum=1, live=True),
     'command_joints': ParameterSpec('', 'joints of effort_commands/position_commands arrays, '
                                     'comma-separated, in order (empty: every moving joint in '
                                     'scene order)'),

@@ -29,12 +29,12 @@ from affine_joint_sim.placement import PLACEMENT_EVENT, place
 from affine_joint_sim.quiet_warp import quiet_warp
 from affine_joint_sim.resources import scene_path as packaged_scene_path
 from affine_joint_sim.ros.bag_metadata import UNLISTED_BAG, unlisted_bag
-from affine_joint_sim.ros.commands import CommandBuffer
 from affine_joint_sim.ros.joint_state import JointStateFiller
 from affine_joint_sim.ros.lockstep import LockstepGate
 from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
+from affine_joint_sim.ros.robots import RobotCommands, RobotFace, robot_faces
 from affine_joint_sim.ros.sensor_messages import (SensorMessages, difference, message_values,
                                                   sensor_values)
 from affine_joint_sim.ros.topics import (COMMAND_KEYS, SENSOR_KEYS, interfaces_built,
@@ -253,11 +253,13 @@ class _Resimulation:
             self.sim = Stepper(scene, device=device)
         except (ValueError, RuntimeError) as exc:
             raise ReplayError(f'--device {device}: {exc}') from None
+        # every robot's joints, scene names (a robot's joint_states name them as in its URDF)
         self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'))
         self.wrapped = self.states.wrapped
-        self.buffer = CommandBuffer.for_stepper(self.sim)
-        # per-joint topics carry the joint's topic token, the buffer takes its name
-        self.joint_of_token = {topic_token(name): name for name in self.sim.joint_names}
+        self.buffer = RobotCommands(self.sim)
+        # per-joint topics carry the joint's topic token, each robot's buffer takes its name
+        self.joint_of_token = [{topic_token(name): name for name in b.joint_names}
+                               for b in self.buffer.buffers]
         self.dropped: list[str] = []
         # the node's own loop; its pacer and lockstep gate stay idle: replay runs flat out
         self.loop = SimLoop(self.sim, self.buffer, Pacer(), LockstepGate())
@@ -297,10 +299,15 @@ class _Resimulation:
         due = [m for m in self.pending if m.t_ns <= now + _EPS_NS]
         self.pending = [m for m in self.pending if m.t_ns > now + _EPS_NS]
         for m in due:
-            joint = None if m.joint is None else self.joint_of_token.get(m.joint, m.joint)
-            self.dropped += self.buffer.take(m.kind, joint, m.decode())
+            robot = self.robot_of(m.topic)
+            joint = None if m.joint is None else self.joint_of_token[robot].get(m.joint, m.joint)
+            self.dropped += self.buffer.buffers[robot].take(m.kind, joint, m.decode())
         self.loop.step()
         self.previous, self.current = self.current, self._sample()
+
+    def robot_of(self, topic: str) -> int:
+        """The robot (index of ``buffer.faces``) of a recorded topic."""
+        return _robot_of(self.buffer.faces, topic)
 
     def place(self, bag_ns: int, event: dict):
         """Apply a recorded placement (SetEntityState) after the step at or after its time; one
@@ -338,6 +345,15 @@ class _Resimulation:
         s = self._reach(stamp_ns)
         now = self.current[3][name]
         return now if s is None else self.previous[3][name] + s * (now - self.previous[3][name])
+
+
+def _robot_of(faces, topic: str) -> int:
+    """The robot (index of ``faces``, ``ros.robots.robot_faces``) whose namespace a recorded
+    topic is in: the longest one that occurs in it as ``/<namespace>/``; 0 in a scene of one
+    robot."""
+    found = [(len(f.namespace), k) for k, f in enumerate(faces)
+             if f.namespace and '/' + f.namespace in topic]
+    return max(found)[1] if found else 0
 
 
 def _wrap(angle):
@@ -398,16 +414,20 @@ def _replay_messages(bag, run, writer, divergence, scene):
                 run.buffer.array_joints = list(event['command_joints'])
         elif m.kind == 'joint_states':
             msg = m.decode()
-            if list(msg.name) != names:
-                raise ReplayError(f'{bag.path}: joint_states name {list(msg.name)}, but the '
+            prefix = run.buffer.buffers[run.robot_of(m.topic)].prefix
+            scene_names = [prefix + name for name in msg.name]
+            if not set(scene_names) <= set(names) or len(set(scene_names)) < len(scene_names):
+                raise ReplayError(f'{bag.path}: {m.topic} names {list(msg.name)}, but the '
                                   f'scene {scene.name!r} has moving joints {names}')
+            index = [names.index(name) for name in scene_names]
             angle, velocity = run.at(msg.header.stamp.sec * 1_000_000_000 +
                                      msg.header.stamp.nanosec)
-            d_angle = angle - np.asarray(msg.position)
-            d_angle = np.abs(np.where(run.wrapped, _wrap(d_angle), d_angle))
-            d_velocity = np.abs(velocity - np.asarray(msg.velocity))
-            divergence.max_angle = np.maximum(divergence.max_angle, d_angle)
-            divergence.max_velocity = np.maximum(divergence.max_velocity, d_velocity)
+            d_angle = angle[index] - np.asarray(msg.position)
+            d_angle = np.abs(np.where(run.wrapped[index], _wrap(d_angle), d_angle))
+            d_velocity = np.abs(velocity[index] - np.asarray(msg.velocity))
+            divergence.max_angle[index] = np.maximum(divergence.max_angle[index], d_angle)
+            divergence.max_velocity[index] = np.maximum(divergence.max_velocity[index],
+                                                        d_velocity)
             divergence.states += 1
         elif m.kind in _SENSOR_TYPE:
             _compare_sensor(m, run, divergence)
@@ -441,18 +461,27 @@ class _OutBag:
 
     def __init__(self, path, storage, bag: RecordedBag, scene: Scene):
         topics = load_topics()
-        self.states_topic, scene_topic, events_topic = (
-            self._name(bag, key, topics) for key in ('joint_states', 'scene', 'events'))
+        scene_topic, events_topic = (self._name(bag, key, topics) for key in ('scene', 'events'))
+        # each robot's joint_states on its recorded topic (else its namespace's)
+        self.faces = robot_faces(scene)
+        recorded = {}
+        for m in bag.messages:
+            if m.kind == 'joint_states':
+                recorded.setdefault(_robot_of(self.faces, m.topic), m.topic)
+        self.states_topics = [recorded.get(k, '/' + face.namespace + 'joint_states')
+                              for k, face in enumerate(self.faces)]
         bag_topics = [BagTopic(name, msgtype, topics['joint_commands'].qos)
                       for name, msgtype in bag.command_topics.items()]
+        bag_topics += [BagTopic(name, topics['joint_states'].type, topics['joint_states'].qos)
+                       for name in self.states_topics]
         bag_topics += [BagTopic(name, topics[key].type, topics[key].qos) for key, name in (
-            ('joint_states', self.states_topic), ('scene', scene_topic),
-            ('events', events_topic))]
+            ('scene', scene_topic), ('events', events_topic))]
         # the scene's sensors, on their recorded topics (else beside joint_states)
         self.sensors = SensorMessages(scene, topics)
         recorded = {m.joint: m.topic for m in bag.messages if m.kind in _SENSOR_TYPE}
-        prefix = self.states_topic[:len(self.states_topic) - len('joint_states')] \
-            if self.states_topic.endswith('joint_states') else '/'
+        tail = self.faces[0].namespace + 'joint_states'
+        first = self.states_topics[0]
+        prefix = first[:len(first) - len(tail)] if first.endswith(tail) else '/'
         self.sensor_topics = {name: recorded.get(name, prefix + topics[key].name(name))
                               for name, _, key in self.sensors.sensors}
         bag_topics += [BagTopic(self.sensor_topics[name], topics[key].type, topics[key].qos)
@@ -481,9 +510,10 @@ class _OutBag:
     def state(self, bag_ns, stamp_ns, sim):
         """Write the stepper's current joint state (``stamp_ns`` since the last reset)."""
         if self.states is None:
-            self.states = JointStateFiller(sim, message_class('sensor_msgs/msg/JointState'))
-        self.recorder.write(self.states_topic, bag_ns,
-                            serialize_message(self.states.fill(sim, stamp_ns)))
+            self.states = [JointStateFiller(sim, message_class('sensor_msgs/msg/JointState'),
+                                            face.robot) for face in self.faces]
+        for topic, filler in zip(self.states_topics, self.states):
+            self.recorder.write(topic, bag_ns, serialize_message(filler.fill(sim, stamp_ns)))
         if self.sensors:
             for name, raw in self.sensors.fill(sim.sensors, stamp_ns):
                 self.recorder.write(self.sensor_topics[name], bag_ns, raw)
@@ -539,11 +569,13 @@ def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
     topics = load_topics()
     rclpy.init()
     node = rclpy.create_node('affine_joint_sim_replay', namespace=namespace)
+    faces = _recorded_robots(bag)
     try:
-        # Relative names (as in topics.yaml), so --namespace decides where they go.
-        publishers = {m.topic: node.create_publisher(message_class(m.msgtype),
-                                                     topics[m.kind].name(m.joint),
-                                                     topics[m.kind].qos) for m in commands}
+        # Relative names (as in topics.yaml, a robot's under its namespace), so --namespace
+        # decides where they go.
+        publishers = {m.topic: node.create_publisher(
+            message_class(m.msgtype), faces[_robot_of(faces, m.topic)].topic(
+                topics[m.kind].name(m.joint)), topics[m.kind].qos) for m in commands}
         deadline = time.monotonic() + wait
         while not any(p.get_subscription_count() for p in publishers.values()):
             if time.monotonic() > deadline:
@@ -563,6 +595,15 @@ def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
+
+
+def _recorded_robots(bag: RecordedBag) -> list[RobotFace]:
+    """The robots of the bag's scene as faces (their namespaces only; one for a scene
+    without several robots)."""
+    data = yaml.safe_load(bag.scene_yaml) if bag.scene_yaml else None
+    robots = data.get('robots') if isinstance(data, dict) else None
+    return [RobotFace(None, r['namespace'] + '/', None) for r in robots or []] or \
+        [RobotFace(None, '', None)]
 
 
 def main(args) -> int:

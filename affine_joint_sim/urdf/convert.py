@@ -46,7 +46,7 @@ from affine_joint_sim.urdf.read import read_urdf
 from affine_joint_sim.urdf.srdf import disabled_pairs
 from affine_joint_sim.urdf.visuals import link_visuals
 
-__all__ = ['urdf_scene_data', 'UrdfOptions', 'ANCHOR_HALF_LENGTH']
+__all__ = ['urdf_scene_data', 'UrdfOptions', 'ANCHOR_HALF_LENGTH', 'object_entries']
 
 # Half the distance between a joint's two axis points x0, x1 [m]: the hinge's stiffness against
 # bending grows with its square (0.1 m halves the gap of the arm6 falling onto its limits).
@@ -440,7 +440,7 @@ class _Converter:
             if item.name in self.body_of or item.name in self.body_of.values():
                 self._fail(f'objects[{k}].name: {item.name!r} is a link of the robot (an object '
                            'needs a name of its own)')
-        objects = [o.model_dump(mode='json', exclude_none=True) for o in self.options.objects]
+        objects, object_frames, object_visuals = object_entries(self.options.objects)
         joints = [self._joint(j) for j in self.robot.joints if not self._welded(j)]
         joints = self._overridden([j for j in joints if j is not None])
         options = self.options
@@ -448,13 +448,13 @@ class _Converter:
                                self.path.parent, {b['name']: _size(b) for b in bodies},
                                lambda message: _warn(f'{self.path}: {message}',
                                                      'visual meshes not found (drawn as boxes)'))
-        visuals += [{'body': o['name'], 'geometry': o['shape']} for o in objects if 'shape' in o]
+        visuals += object_visuals
         settings = options.model_dump(include={*SceneSettings.model_fields, 'contact',
                                                'ground', 'sensors'}, exclude_none=True)
         settings['name'] = options.name or self.robot.name or self.path.stem
         if touching:
             settings['contact'] = {**settings.get('contact', {}), 'exclude': self._excluded()}
-        frames += [{'name': o['name'], 'body': o['name']} for o in objects]   # at its origin
+        frames += object_frames
         return {**settings, 'bodies': bodies + objects, 'joints': joints, 'frames': frames,
                 'visuals': visuals}
 
@@ -514,6 +514,15 @@ class _Converter:
                            f'{", ".join(by_name)})')
             by_name[name].update(keys)
         return joints
+
+
+def object_entries(objects: list[Body]) -> tuple[list[dict], list[dict], list[dict]]:
+    """The scene entries of ``objects`` (bodies beside a robot): their bodies, a frame of each
+    one's name at its origin, and a visual of each one's shape."""
+    bodies = [o.model_dump(mode='json', exclude_none=True) for o in objects]
+    frames = [{'name': o['name'], 'body': o['name']} for o in bodies]
+    visuals = [{'body': o['name'], 'geometry': o['shape']} for o in bodies if 'shape' in o]
+    return bodies, frames, visuals
 
 
 def _origin(joint) -> np.ndarray:

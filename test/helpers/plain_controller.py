@@ -7,7 +7,7 @@ out S seconds after the state came (a controller still warming up on a loaded ma
 torque is a PD law on one joint. Runs until interrupted.
 
     python plain_controller.py JOINT TARGET [--unstamped] [--every] [--first-answer-after S]
-        [--name NODE]
+        [--name NODE] [--namespace NS]
 """
 
 import argparse
@@ -29,9 +29,10 @@ def main(argv=None):
     parser.add_argument('--first-answer-after', type=float, default=0.0, metavar='S',
                         help='wall seconds [s] to wait before the first answer')
     parser.add_argument('--name', default='plain_controller')
+    parser.add_argument('--namespace', default='', help="the robot's (its topics under it)")
     args = parser.parse_args(argv)
     rclpy.init()
-    node = rclpy.create_node(args.name)
+    node = rclpy.create_node(args.name, namespace=args.namespace)
     publisher = node.create_publisher(JointState, 'joint_commands', 10)
     answered = {}                      # stamp -> when it was answered (monotonic s)
 

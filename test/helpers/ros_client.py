@@ -42,11 +42,12 @@ def node_services(node) -> dict:
     return dict(node.get_service_names_and_types_by_node('affine_joint_sim', '/'))
 
 
-def wait_until_up(node, wait_for, process) -> bool:
-    """Wait until the simulator node in ``process`` publishes joint_states and serves ~/step
-    as seen from ``node``, or the process ends; True if it is up."""
+def wait_until_up(node, wait_for, process, states: str = '/joint_states') -> bool:
+    """Wait until the simulator node in ``process`` publishes ``states`` (a robot's
+    joint_states) and serves ~/step as seen from ``node``, or the process ends; True if it
+    is up."""
     seen = wait_for(lambda: process.poll() is not None or (
-        node.count_publishers('/joint_states') > 0 and
+        node.count_publishers(states) > 0 and
         '/affine_joint_sim/step' in node_services(node)), timeout=30.0)
     return seen and process.poll() is None
 
