@@ -549,11 +549,6 @@ class Scene(SceneSettings):
             if not any(b.name.startswith(robot.prefix) for b in self.bodies):
                 problems.append((f'robots[{i}].name', f'no body is named {robot.prefix}...: a '
                                  "robot's bodies are named <robot>/<link>"))
-        for i, joint in enumerate(self.joints if self.robots else []):
-            if joint_kind(joint.type).command is not None and self.robot_of(joint.name) is None:
-                problems.append((f'joints[{i}].name', f'{joint.name!r} is no robot\'s: in a '
-                                 'scene of several robots each moving joint is one robot\'s, '
-                                 'named <robot>/<joint>'))
         return problems
 
     def _mimic_problems(self) -> list[tuple[str, str]]:

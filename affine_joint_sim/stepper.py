@@ -32,7 +32,8 @@ from affine_joint_sim.physics.kernels import (frame_kernel, report_kernel, scala
                                               sensor_kernel, step_kernels)
 from affine_joint_sim.mirrors import Downloads, Uploads, host_copy
 from affine_joint_sim.physics.contact.model import refuse_touching
-from affine_joint_sim.physics.host.model import build_model, largest_step_efforts
+from affine_joint_sim.physics.host.model import (build_model, initial_states,
+                                                 largest_step_efforts)
 from affine_joint_sim.physics.solve.newton import HALVINGS
 from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap
 from affine_joint_sim.placement import body_rows, free_body
@@ -61,6 +62,11 @@ _PROBLEMS = {      # by physics.host.fields.PROBLEM_NAMES
 _NEAR_FULL = PROBLEM_COLUMNS.index('near_full')
 # the Scratch arrays sized by the near lists' room (physics.host.fields ``near``): grown together
 _NEAR_ARRAYS = tuple(f.name for f in fields_of('scratch') if 'near' in f.shape)
+# What a rebuilt Stepper (spawn, delete) carries over, by the rows of State they are.
+_BODY_ROWS = ('q', 'v', 'q_prev', 'v_prev')
+_JOINT_ROWS = ('joint_coordinate', 'joint_coordinate_prev', 'joint_position', 'joint_velocity',
+               'joint_effort')
+_ENV_ROWS = ('history_ready', 'nearest_seen', 'most_contacts')
 _FLAGS = ('converged', 'angle_aliased', 'torque_dropped', 'non_finite', 'step_rejected')
 # Outputs by download group (mirrors.Downloads): what one read moves to the host on a GPU
 # (State arrays, and the Scratch ones the contact report needs).
@@ -153,7 +159,15 @@ class Stepper:
             self._pool = ThreadPoolExecutor(len(self._chunks) - 1, 'affine-joint-sim-step')
             weakref.finalize(self, self._pool.shutdown, wait=False)
         with summarised(f'scene {scene.name!r}'):     # one line for its meshes reduced
-            self._host = build_model(scene)
+            self._build(scene, build_model(scene))
+        self.reset()
+        self._record()
+
+    def _build(self, scene, host) -> None:
+        """Everything made from ``scene`` and its host model ``host``: the kernels (Warp's
+        cache has them where the variant is the same), the lookups and the arrays, allocated
+        but not set (``reset``)."""
+        self.scene, self._host = scene, host
         self._k = step_kernels(scalar_of(scene.solver.precision), self._host.has_body_pairs,
                                contact=bool(self._host.has_contact),
                                shapes=self._host.has_static_shapes)
@@ -179,8 +193,6 @@ class Stepper:
         self._near_room = self._host.near_room      # pairs a near list has room for
         self._graphs = None
         self._allocate()
-        self.reset()
-        self._record()
 
     # ---- public API -----------------------------------------------------------------------
 
@@ -509,6 +521,95 @@ class Stepper:
         count[:] = len(near)
         self._store(self._scratch.near_pairs, pairs)
         self._store(self._scratch.near_count, count)
+
+    def spawn(self, name: str, pose=None, body: dict | None = None, urdf: str | None = None,
+              namespace: str | None = None, **options) -> None:
+        """Add entity ``name`` between steps (README.md#spawning-and-deleting): ``body`` (a
+        scene ``bodies`` entry without its name) or ``urdf`` (a URDF file's path or its text:
+        a robot whose bodies, joints and links are named ``<name>/...``, its topics under
+        ``namespace``, default ``name``; ``options``: a ``robots:`` entry's keys such as
+        ``fixed_base`` and ``initial_positions``), its frame (a robot's root link) at world
+        ``pose`` (4×4; default the identity), at rest unless ``body`` gives velocities. Every
+        other body and joint goes on from its state and commands as if nothing was added
+        (``_rebuild``). SceneError, KeyError or ValueError naming what is wrong (a name taken,
+        a start inside something it may touch); nothing changes then."""
+        from affine_joint_sim.spawning import with_body, with_robot
+
+        pose = np.eye(4) if pose is None else np.asarray(pose, dtype=np.float64)
+        body_rows(pose, np.eye(4), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))    # ValueError if bad
+        if (body is None) == (urdf is None):
+            raise ValueError('spawn: give exactly one of body (a scene body entry) or urdf')
+        self._rebuild(with_body(self.scene, {**body, 'name': name}, pose) if urdf is None
+                      else with_robot(self.scene, name, urdf, pose, namespace, **options))
+
+    def delete(self, name: str) -> None:
+        """Remove entity ``name`` between steps: a robot of ``scene.robots`` (its bodies and
+        joints) or a body in no joint (``spawning.entity_names``); every other body and joint
+        goes on as if nothing was removed. SceneError naming the entities if it is none."""
+        from affine_joint_sim.spawning import without
+
+        self._rebuild(without(self.scene, name))
+
+    def _rebuild(self, scene) -> None:
+        """Go on with ``scene``, an edit of this one (bodies and joints added at the end or
+        removed): every body and joint it keeps, matched by name, keeps its state (q, q̇ and
+        BDF2's history; coordinates, velocities, efforts) and its commands; the step count,
+        time and counts go on. What is new starts at the scene's initial state, its BDF2 history
+        that of a constant velocity; the lagged contact forces restart (the next step lags its
+        own) and the near lists are gathered anew. The edited scene must touch nothing at the
+        current state (SceneError, and nothing changes)."""
+        old, envs = self.scene, self._envs
+        bodies = {b.name: i for i, b in enumerate(old.bodies)}
+        joints = {j.name: k for k, j in enumerate(old.joints)}
+        kept_b = [(i, bodies[b.name]) for i, b in enumerate(scene.bodies) if b.name in bodies]
+        kept_j = [(k, joints[j.name]) for k, j in enumerate(scene.joints) if j.name in joints]
+        new_b, old_b = (np.array(x, dtype=np.intp).reshape(-1) for x in zip(*kept_b)) \
+            if kept_b else (np.zeros(0, np.intp),) * 2
+        new_j, old_j = (np.array(x, dtype=np.intp).reshape(-1) for x in zip(*kept_j)) \
+            if kept_j else (np.zeros(0, np.intp),) * 2
+        state, scratch = self._state, self._scratch
+        carried = {name: getattr(group, name).numpy().copy() for group, names in (
+            (state, _BODY_ROWS + _JOINT_ROWS + _ENV_ROWS), (scratch, ('q_n',))) for name in names}
+        inputs = [view.copy() for view in self._uploads.views.values()]
+        q0 = initial_states(scene)
+        starts = np.broadcast_to(q0, (envs, *q0.shape)).copy()
+        starts[:, new_b] = carried['q'][:, old_b]
+        with summarised(f'scene {scene.name!r}'):
+            host = build_model(scene, list(starts))       # SceneError: nothing changed yet
+        steps, totals = self._steps, self._problem_totals
+        clamped = dict(zip(self.command_joint_names, self._clamp_totals.tolist()))
+        warned = self._warned
+        self._build(scene, host)
+        self.reset()
+        state, scratch = self._state, self._scratch
+        for group, names, rows in ((state, _BODY_ROWS, (new_b, old_b)),
+                                   (state, _JOINT_ROWS, (new_j, old_j)),
+                                   (scratch, ('q_n',), (new_b, old_b))):
+            for name in names:
+                self._carry(getattr(group, name), carried[name], *rows)
+        # a new free body's BDF2 history: the state a step earlier at its constant velocity
+        fresh = np.setdiff1d(np.arange(len(scene.bodies)), new_b)
+        if len(fresh):
+            q_prev = state.q_prev.numpy()
+            q_prev[:, fresh] -= scene.dt * state.v.numpy()[:, fresh]
+            self._store(state.q_prev, q_prev)
+        for name in _ENV_ROWS:
+            getattr(state, name).assign(carried[name])
+        for view, before in zip(self._uploads.views.values(), inputs):
+            view[:, new_j] = before[:, old_j]
+        for k in self._commanded:
+            self._torque_mask[:, k] = (self._enabled[:, k] != 0) & bool(host.joint_has_free[k])
+        self._uploads.written()
+        self._downloads.stale()
+        self._steps, self._problem_totals, self._warned = steps, totals, warned
+        self._clamp_totals[:] = [clamped.get(n, 0) for n in self.command_joint_names]
+        self._record()
+
+    def _carry(self, array, before: np.ndarray, new: np.ndarray, old: np.ndarray) -> None:
+        """Rows ``new`` (axis 1) of ``array`` from rows ``old`` of ``before``."""
+        rows = array.numpy()
+        rows[:, new] = before[:, old]
+        self._store(array, rows)
 
     def set_body_state(self, name: str, pose, linear_velocity=(0.0, 0.0, 0.0),
                        angular_velocity=(0.0, 0.0, 0.0), env: int = 0) -> None:

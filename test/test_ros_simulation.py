@@ -45,7 +45,7 @@ def test_the_standard_pauses_steps_stops_and_resets(sim, ros_node, wait_for):
     assert {SimulatorFeatures.STEP_SIMULATION_MULTIPLE, SimulatorFeatures.SIMULATION_RESET,
             SimulatorFeatures.STEP_SIMULATION_ACTION,
             SimulatorFeatures.ENTITY_STATE_GETTING} <= set(features)
-    assert SimulatorFeatures.SPAWNING not in features
+    assert SimulatorFeatures.SPAWNING in features
     state = _call(ros_node, wait_for, 'get_simulation_state')
     assert state.state.state == SimulationState.STATE_PLAYING
     refused = _call(ros_node, wait_for, 'step_simulation', steps=3)
@@ -129,7 +129,7 @@ def test_the_simulate_steps_action_steps_with_feedback(sim, ros_node, wait_for):
     before = stamp_ns(states.last)
     result, feedback = run(4)
     assert result.result.result == Result.RESULT_OK
-    assert wait_for(lambda: len(feedback) == 4)     # a topic: it may trail the result
+    assert wait_for(lambda: len(feedback) == 4, timeout=30.0)   # a topic: may trail the result
     assert [(f.completed_steps, f.remaining_steps) for f in feedback] == \
         [(1, 3), (2, 2), (3, 1), (4, 0)]
     assert wait_for(lambda: stamp_ns(states.last) == before + 4 * DT_NS)

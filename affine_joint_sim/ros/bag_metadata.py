@@ -76,7 +76,8 @@ class BagIndex:
             size: size of the split's file [B].
         """
         (entry,) = info['files']
-        self._before = (list(self._counts), self._start, self._end, self.bytes)
+        self._before = (list(self._counts), len(self._topics), self._start, self._end,
+                        self.bytes)
         if not self.names:
             self._constant = {key: info[key] for key in ('version', 'storage_identifier',
                                                           'compression_format',
@@ -84,6 +85,9 @@ class BagIndex:
             self._topics = [t['topic_metadata'] for t in info['topics_with_message_count']]
             self._counts = [0] * len(self._topics)
         for k, topic in enumerate(info['topics_with_message_count']):
+            if k == len(self._topics):      # added to the bag after the first split
+                self._topics.append(topic['topic_metadata'])
+                self._counts.append(0)
             self._counts[k] += topic['message_count']
         if entry['message_count']:
             start = entry['starting_time']['nanoseconds_since_epoch']
@@ -96,7 +100,8 @@ class BagIndex:
 
     def retract(self) -> None:
         """Undo the last ``add`` (its split could not be listed in metadata.yaml)."""
-        self._counts, self._start, self._end, self.bytes = self._before
+        self._counts, topics, self._start, self._end, self.bytes = self._before
+        del self._topics[topics:]
         for entries in self._entries.values():
             entries.pop()
         self.names.pop()

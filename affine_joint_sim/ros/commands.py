@@ -62,19 +62,19 @@ class CommandBuffer:
     def for_stepper(cls, sim, command_timeout: float = 0.0,
                     array_joints: list[str] | None = None, robot=None) -> 'CommandBuffer':
         """The buffer of a Stepper's command joints (``robot``: those of that ``scene.Robot``,
-        named as in its URDF; None: every one), with its drives and its step bounds (none for
-        a joint whose effort_limit is within its bound: the stepper clamps every command to
-        that limit, as ros2_control and Gazebo do, so none is too large)."""
+        named as in its URDF; None: those outside the scene's robots), with its drives and its
+        step bounds (none for a joint whose effort_limit is within its bound: the stepper
+        clamps every command to that limit, as ros2_control and Gazebo do, so none is too
+        large)."""
         scene = sim.scene
         prefix = '' if robot is None else robot.prefix
         index = np.array([k for k in sim.command_joint_index
-                          if robot in (None, scene.robot_of(scene.joints[k].name))],
-                         dtype=np.intp)
+                          if scene.robot_of(scene.joints[k].name) == robot], dtype=np.intp)
         bounds = sim.step_effort_bounds[index]
         limits = np.array([scene.joints[k].effort_limit for k in index])
 
         def own(names):
-            return [n[len(prefix):] for n in names if robot in (None, scene.robot_of(n))]
+            return [n[len(prefix):] for n in names if scene.robot_of(n) == robot]
 
         return cls(own(scene.joints[k].name for k in index), command_timeout,
                    array_joints=array_joints, drive_joints=own(sim.drive_joint_names),

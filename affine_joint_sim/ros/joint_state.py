@@ -21,17 +21,18 @@ class JointStateFiller:
     Args:
         sim: the Stepper.
         msg_class: the JointState class (``topics['joint_states'].msg_class``).
-        robot: one ``scene.Robot`` of several: its joints only, named as in its URDF; None:
-            every joint of the scene.
+        robot: a ``scene.Robot``: its joints only, named as in its URDF; None: the joints
+            outside the scene's robots (every joint of a scene without robots).
+        every: every joint of the scene, as the scene names them (``robot`` unused).
     """
 
-    def __init__(self, sim, msg_class, robot=None):
+    def __init__(self, sim, msg_class, robot=None, every: bool = False):
         scene = sim.scene
         moving = np.array([k for k, kind in enumerate(sim.joint_types)
                            if joint_kind(kind).command is not None
-                           and robot in (None, scene.robot_of(sim.joint_names[k]))],
+                           and (every or scene.robot_of(sim.joint_names[k]) == robot)],
                           dtype=np.intp)
-        prefix = '' if robot is None else robot.prefix
+        prefix = '' if robot is None or every else robot.prefix
         self.names = [sim.joint_names[k][len(prefix):] for k in moving]
         # without fixed joints every array is sent as it is (no copy per step)
         self.index = None if len(moving) == len(sim.joint_types) else moving

@@ -41,14 +41,14 @@ class LockstepGate:
             published again when no controller joined (its answer may have been lost).
         report_every: wall seconds [s] between two "still waiting" reports.
         clock: wall clock in seconds (monotonic); injectable for tests.
-        robots: the robots whose controllers answer (the node's robot faces; an answer says
-            which robot it commands: 0 … robots − 1).
+        robots: the robots whose controllers answer (keys: the node's robot faces'; an
+            answer says which robot it commands), changed as robots are spawned or deleted.
     """
 
     def __init__(self, publishers: int = 1, republish_every: float = 2.0,
-                 report_every: float = 2.0, clock=time.monotonic, robots: int = 1):
+                 report_every: float = 2.0, clock=time.monotonic, robots=(0,)):
         self.publishers = publishers
-        self.robots = robots
+        self.robots = tuple(robots)
         self.republish_every = republish_every
         self.report_every = report_every
         self.clock = clock
@@ -70,7 +70,7 @@ class LockstepGate:
         self._matched = matched
         self._since = self._published_at = self._reported_at = self.clock()
 
-    def answer(self, stamp_ns: int, source, robot: int = 0) -> str:
+    def answer(self, stamp_ns: int, source, robot=0) -> str:
         """Count a command stamped ``stamp_ns`` (0: unstamped) from ``source`` (hashable: the
         topic and the joints it commands) for ``robot``. Returns 'stale' if it answers
         another state (drop it), 'repeat' if ``source`` answered this state already,
@@ -88,7 +88,7 @@ class LockstepGate:
             return 'surplus'
         return 'counted'
 
-    def _answers_for(self, robot: int) -> int:
+    def _answers_for(self, robot) -> int:
         return sum(1 for r, _ in self._sources if r == robot)
 
     @property
@@ -99,7 +99,7 @@ class LockstepGate:
     @property
     def released(self) -> bool:
         """Whether the next step may be computed: every robot has its answers."""
-        return all(self._answers_for(r) >= self.publishers for r in range(self.robots))
+        return all(self._answers_for(r) >= self.publishers for r in self.robots)
 
     def republish_due(self, matched: tuple[int, int]) -> bool:
         """Whether the waiting state should be published again now, given the counts matched

@@ -31,7 +31,6 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from std_srvs.srv import SetBool, Trigger
 
-from affine_joint_sim.physics.host.joint_kinds import joint_kind
 from affine_joint_sim.resources import scene_path
 from affine_joint_sim.ros.collector import CollectorPauses, settle
 from affine_joint_sim.ros.joint_state import JointStateFiller
@@ -40,15 +39,17 @@ from affine_joint_sim.ros.loop import SimLoop
 from affine_joint_sim.ros.pacing import Pacer
 from affine_joint_sim.ros.recorder import BagRecorder, BagTopic
 from affine_joint_sim.ros.recording import RunRecording
+from affine_joint_sim.ros.robot_topics import RobotTopics
 from affine_joint_sim.ros.robots import RobotCommands
 from affine_joint_sim.ros.parameters import PARAMETERS, ConfigError, check, command_joints
 from affine_joint_sim.ros.sensor_messages import SensorMessages
 from affine_joint_sim.ros.simulation_services import SimulationServices
 from affine_joint_sim.ros.step_grant import StepGrant
-from affine_joint_sim.ros.topics import (ANSWER_KEYS, JOINT_COMMAND_KEYS, SENSOR_KEYS,
+from affine_joint_sim.ros.topics import (ANSWER_KEYS, SENSOR_KEYS,
                                          interfaces_built, load_topics)
 from affine_joint_sim.ros.viz import VizPublisher
 from affine_joint_sim.scene import Scene, SceneError
+from affine_joint_sim.spawning import apply_edit
 from affine_joint_sim.stepper import SimulationWarning, Stepper
 from affine_joint_sim.viz.description import robot_description
 
@@ -126,13 +127,11 @@ class SimNode(Node):
         self.commands = RobotCommands(
             self.sim, self.config['command_timeout'],
             array_joints=command_joints(self.config['command_joints'], self.sim))
-        # the robots whose controllers answer in lockstep: those with joints to command
-        self._answering = [k for k, b in enumerate(self.commands.buffers) if b.joint_names]
         self.pacer = Pacer(self.config['real_time_factor'])
         self.topics = load_topics()
         self.paused = False
         self.gate = LockstepGate(self.config['lockstep_publishers'],
-                                 robots=max(len(self._answering), 1))
+                                 robots=self._answering())
         self._answer_subs = {}          # resolved answer topic name -> its subscription
         self._warned_publishers = None  # matched publisher count last warned about (lockstep)
         self.oversized = 0              # command messages dropped for max_command_bytes
@@ -154,11 +153,10 @@ class SimNode(Node):
         try:
             scene_msg = self.topics['scene'].msg_class(data=self.scene.to_yaml())
             self._publish_and_record(self.scene_pub, scene_msg, 0)
-            description = self.topics['robot_description'].msg_class
-            self._publish_and_record(self.description_pub, description(
-                data=robot_description(self.scene)), 0)
-            for publisher, text in self._robot_descriptions:
-                self._publish_and_record(publisher, description(data=text), 0)
+            self._publish_and_record(self.description_pub, self.topics[
+                'robot_description'].msg_class(data=robot_description(self.scene)), 0)
+            for topics in self.robot_topics:
+                topics.publish_description(0)
             self.viz.publish_static(0)
             self._event({'event': 'start', **{k: self.config[k] for k in
                                               ('mode', 'device', 'command_timeout')},
@@ -210,12 +208,6 @@ class SimNode(Node):
         return config
 
     def _make_interfaces(self):
-        faces = self.commands.faces
-        # per robot (one for a scene without robots): its joint_states and their filler
-        self.state_pubs = [self._publisher('joint_states', namespace=face.namespace)
-                           for face in faces]
-        self._joint_states = [JointStateFiller(self.sim, self.topics['joint_states'].msg_class,
-                                               face.robot) for face in faces]
         self.clock_pub = self._publisher('clock')
         self._clock_msg = self.topics['clock'].msg_class()
         # per sensor of the scene: sensors/<name>, just before joint_states (none: no cost)
@@ -225,12 +217,8 @@ class SimNode(Node):
         # Latched: the scene as run, every default spelled out, for late joiners and bags.
         self.scene_pub = self._publisher('scene')
         self.events_pub = self._publisher('events')
-        # Latched: the scene as a URDF (its own, or generated), for URDF viewers; and each of
-        # several robots' own URDF under its namespace.
+        # Latched: the scene as a URDF (its own, or generated), for URDF viewers.
         self.description_pub = self._publisher('robot_description')
-        self._robot_descriptions = [
-            (self._publisher('robot_description', namespace=face.namespace), face.description)
-            for face in faces if face.robot is not None and face.description is not None]
         self.viz = VizPublisher(self._publisher, self.sim, self.config['viz_rate'],
                                 self.config['frame_id'], self._publish_and_record,
                                 lambda: self.recording.active)
@@ -238,15 +226,9 @@ class SimNode(Node):
             self.get_logger().warning('no /tf or /tf_static: tf2_msgs is not built in this '
                                       'environment (make venv builds it where cmake and a C++ '
                                       'compiler are)')
-        for robot, face in enumerate(faces):
-            buffer = self.commands.buffers[robot]
-            for joint, k in zip(buffer.joint_names, buffer.scene_index):
-                for key in JOINT_COMMAND_KEYS.get(joint_kind(self.sim.joint_types[k]).command,
-                                                  ()):
-                    self._subscribe(key, joint, robot)
-            if robot in self._answering or not self._answering:
-                for key in ANSWER_KEYS:
-                    self._subscribe(key, None, robot)
+        # per robot (one for a scene without robots): joint_states, commands, its URDF
+        self.robot_topics = [RobotTopics(self, face, buffer, face.key in self.gate.robots)
+                             for face, buffer in zip(self.commands.faces, self.commands.buffers)]
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
@@ -282,16 +264,23 @@ class SimNode(Node):
                               f'a valid ROS topic name in namespace {self.get_namespace()!r} '
                               f'({str(exc).splitlines()[0]}); use a shorter sensor name') from None
 
-    def _subscribe(self, key, joint, robot: int = 0):
+    def _answering(self) -> tuple:
+        """The robots (``RobotFace.key``) whose controllers answer in lockstep: those with
+        joints to command (the first robot's where none has any)."""
+        faces = self.commands.faces
+        return tuple(f.key for f, b in zip(faces, self.commands.buffers) if b.joint_names) or \
+            (faces[0].key,)
+
+    def _subscribe(self, key, joint, robot=None):
         """Subscribe raw (CDR bytes, as the bag keeps them) and queue the decoded command in
-        robot ``robot``'s buffer (``joint``: named as there); in lockstep, a message on an
-        ANSWER_KEYS topic answers the state its stamp names for that robot (stale ones are
-        dropped before they are recorded or applied)."""
+        the buffer of robot ``robot`` (``RobotFace.key``; ``joint``: named as there); in
+        lockstep, a message on an ANSWER_KEYS topic answers the state its stamp names for that
+        robot (stale ones are dropped before they are recorded or applied). Returns the
+        subscription."""
         topic = self.topics[key]
-        commands = self.commands.buffers[robot]
+        namespace = next(f.namespace for f in self.commands.faces if f.key == robot)
         try:
-            name = self.resolve_topic_name(self.commands.faces[robot].namespace +
-                                           topic.name(joint))
+            name = self.resolve_topic_name(namespace + topic.name(joint))
         except _rclpy.RCLError as exc:     # e.g. longer than ROS allows (247 characters)
             raise ConfigError(f'joint {joint!r}: its topic {topic.name(joint)!r} is not a valid '
                               f'ROS topic name in namespace {self.get_namespace()!r} ({exc}); '
@@ -309,6 +298,7 @@ class SimNode(Node):
                 return
             msg = deserialize_message(raw, msg_class)
             with self._wake:
+                commands = self.commands.buffer_of(robot)
                 problem = commands.malformed(key, msg)
                 if problem is not None:       # answers no state, commands nothing
                     self.malformed += 1
@@ -320,8 +310,7 @@ class SimNode(Node):
                         if header is not None else 0
                     joints = getattr(msg, 'name', None)      # arrays command every joint
                     source = (name, None if joints is None else frozenset(joints))
-                    verdict = self.gate.answer(stamp, source, self._answering.index(robot)
-                                               if robot in self._answering else 0)
+                    verdict = self.gate.answer(stamp, source, robot)
                     if verdict == 'stale':
                         self._reject(name, f'a command stamped t = {stamp * 1e-9:.6f} s answers '
                                      f'no waiting state (the node waits on t = '
@@ -342,7 +331,8 @@ class SimNode(Node):
                     if self.gate.released:
                         self._wake.notify()
                 self.taken += 1
-                self.recording.take(name, raw)
+                if name in self._recorded:
+                    self.recording.take(name, raw)
                 for problem in commands.take(key, joint, msg):
                     self._reject(name, problem)
 
@@ -350,9 +340,12 @@ class SimNode(Node):
         if answers:
             self._answer_subs[name] = subscription
         self._bag_topics.append(BagTopic(name, topic.type, topic.qos))
+        return subscription
 
     def _open_bag(self):
         """The recorder (``record`` set), with every topic the node publishes or takes."""
+        # what the bag records: the topics known when it opens, and a spawned robot's
+        self._recorded = {t.name for t in self._bag_topics}
         if not self.config['record']:
             return None
         try:
@@ -363,7 +356,7 @@ class SimNode(Node):
     def _publish_and_record(self, publisher, msg, t_ns):
         """Record first: the bag keeps every computed step even if a shutdown stops the publish.
         ``msg`` is a message or its serialized bytes."""
-        if self.recording.active:
+        if self.recording.active and publisher.topic_name in self._recorded:
             raw = msg if isinstance(msg, bytes) else serialize_message(msg)
             self.recording.write(publisher.topic_name, t_ns, raw)
         publisher.publish(msg)
@@ -490,6 +483,48 @@ class SimNode(Node):
         self.viz.reset(self.loop.bag_ns)
         self.publish_state()
 
+    def edit_scene(self, event: dict) -> None:
+        """Apply a spawn or delete event (``spawning.apply_edit``) between two steps and follow
+        it: each new robot gets its topics (and its URDF published), a deleted one's go, the
+        lockstep gate waits for the robots there are now, the views and the latched scene and
+        robot_description show the scene now; the event is recorded and the waiting state
+        published again (a new robot's controller answers it). Raises as ``apply_edit`` (a
+        refused edit changes nothing)."""
+        self.recording.record_taken(self.loop.bag_ns)
+        apply_edit(self.sim, event)
+        self.scene = self.sim.scene
+        added, removed = self.commands.refresh(self.sim)
+        self.gate.robots = self._answering()
+        kept = {}
+        for topics in self.robot_topics:
+            if topics.face.key in removed:
+                topics.destroy()
+            else:
+                kept[topics.face.key] = topics
+        self.robot_topics = []
+        t_ns, known = self.loop.bag_ns, len(self._bag_topics)
+        for face, buffer in zip(self.commands.faces, self.commands.buffers):
+            topics = kept.get(face.key)
+            if topics is None:
+                topics = RobotTopics(self, face, buffer, face.key in self.gate.robots)
+                for topic in self._bag_topics[known:]:     # recorded from now on
+                    self._recorded.add(topic.name)
+                    self.recording.add_topic(topic)
+                known = len(self._bag_topics)
+                topics.publish_description(t_ns)
+            else:       # its joints' places in the scene may have moved
+                topics.face = face
+                topics.states = JointStateFiller(self.sim, self.topics['joint_states']
+                                                 .msg_class, face.robot)
+            self.robot_topics.append(topics)
+        self._event(event)
+        self._publish_and_record(self.scene_pub, self.topics['scene'].msg_class(
+            data=self.scene.to_yaml()), t_ns)
+        self._publish_and_record(self.description_pub, self.topics['robot_description']
+                                 .msg_class(data=robot_description(self.scene)), t_ns)
+        self.viz.rebuild(self.sim, self.config['frame_id'], t_ns)
+        self.publish_state(again=True)
+
     def step(self):
         """Record and apply the queued commands, advance one dt, publish the new state."""
         self.recording.record_taken(self.loop.bag_ns)
@@ -513,17 +548,17 @@ class SimNode(Node):
         if not again:
             self.gate.expect(self.loop.sim_time_ns, self._matched_counts()
                              if self.config['mode'] == 'lockstep' else None)
-        messages = [filler.fill(self.sim, self.loop.sim_time_ns)
-                    for filler in self._joint_states]
+        messages = [(t.state_pub, t.states.fill(self.sim, self.loop.sim_time_ns))
+                    for t in self.robot_topics]
         if again:
-            for publisher, msg in zip(self.state_pubs, messages):
+            for publisher, msg in messages:
                 publisher.publish(msg)
             return
         t_ns = self.loop.bag_ns
         if self._sensor_msgs:
             for name, raw in self._sensor_msgs.fill(self.sim.sensors, self.loop.sim_time_ns):
                 self._publish_and_record(self.sensor_pubs[name], raw, t_ns)
-        for publisher, msg in zip(self.state_pubs, messages):
+        for publisher, msg in messages:
             self._publish_and_record(publisher, msg, t_ns)
         if self.config['publish_clock']:
             clock = self._clock_msg.clock
@@ -562,7 +597,7 @@ class SimNode(Node):
     def _matched_counts(self) -> tuple[int, int]:
         """(subscriptions matched on joint_states, publishers matched on the answer topics):
         DDS's counts now (~3 µs)."""
-        return (sum(p.get_subscription_count() for p in self.state_pubs),
+        return (sum(t.state_pub.get_subscription_count() for t in self.robot_topics),
                 sum(sub.get_publisher_count() for sub in self._answer_subs.values()))
 
     def _keep_lockstep_alive(self):
@@ -578,7 +613,8 @@ class SimNode(Node):
         matched, names, mismatched = publishers
         why = (f'{matched} publisher(s) matched (nodes: {names}), ' if matched else
                'no publisher is matched, ') + (
-            f"{self.gate.answers} of {self.gate.publishers * self.gate.robots} answers so far")
+            f"{self.gate.answers} of {self.gate.publishers * len(self.gate.robots)} answers so "
+            "far")
         self.get_logger().warning(
             f'lockstep: waiting {waited:.1f} s for an answer on {", ".join(self._answer_subs)} '
             f'to the state at t = {self.gate.stamp_ns * 1e-9:.6f} s: {why}{mismatched}')
@@ -613,13 +649,14 @@ class SimNode(Node):
         ``publishers``: ``_answer_publishers()`` if the caller has it already."""
         count, names, mismatched = publishers or self._answer_publishers()
         gate = self.gate
-        expected = gate.publishers * gate.robots
+        robots = len(gate.robots)
+        expected = gate.publishers * robots
         if count == expected or count == self._warned_publishers or (count == 0 and expected):
             return
         self._warned_publishers = count
         topics = ', '.join(self._answer_subs)
         setting = f'lockstep_publishers is {gate.publishers}' + (
-            f' per robot ({gate.robots} robots)' if gate.robots > 1 else '')
+            f' per robot ({robots} robots)' if robots > 1 else '')
         if count > expected:
             self.get_logger().warning(
                 f'lockstep: {count} publishers on {topics} (nodes: {names}) but '
@@ -708,8 +745,8 @@ class SimNode(Node):
             raise failure[0]
         if not self.stop_requested.is_set():
             # A run that ends by itself delivers its last state before the node goes.
-            for publisher in self.state_pubs:
-                publisher.wait_for_all_acked(Duration(seconds=1.0))
+            for topics in self.robot_topics:
+                topics.state_pub.wait_for_all_acked(Duration(seconds=1.0))
 
     def summary(self) -> dict:
         """Figures of the whole run, resets included: steps, simulated and wall time, steps/s,

@@ -33,7 +33,7 @@ class BagRecorder:
     Args:
         path: the bag directory to create (must not exist).
         storage: ``mcap`` | ``sqlite3``.
-        topics: every topic that will be written, in a fixed order.
+        topics: the topics to write, in a fixed order (``add_topic`` adds more).
         custom_data: strings stored in metadata.yaml (``custom_data``).
         split_seconds: wall seconds [s] after which the current split is due to close.
 
@@ -55,9 +55,10 @@ class BagRecorder:
         self.late_splits = 0            # splits that stayed open because the writer was busy
         self.path.mkdir(parents=True)
         opened = itertools.count()
+        self._topics = list(topics)     # read by the writer thread as it opens a split
 
         def open_split():
-            return SplitWriter(self.path / f'.split_{next(opened)}', storage, topics)
+            return SplitWriter(self.path / f'.split_{next(opened)}', storage, self._topics)
 
         self._writer = open_split()
         try:
@@ -77,6 +78,13 @@ class BagRecorder:
         """Write one CDR-serialized message on ``topic`` at bag time ``t_ns`` [ns]."""
         self._writer.write(self._connections[topic], t_ns, data)
         self._count += 1
+
+    def add_topic(self, topic: BagTopic) -> None:
+        """Write ``topic`` too from now on (a robot spawned while recording), after the
+        others in every split from the current one."""
+        if topic.name not in self._connections:
+            self._topics.append(topic)
+            self._connections[topic.name] = self._writer.connect(topic)
 
     def flush_if_due(self) -> None:
         """Hand the current split to the writer thread if it is older than ``split_seconds``
@@ -134,6 +142,10 @@ class BagRecorder:
         return f'{self.path.name}_{self._handed}{SUFFIX[self.storage]}'
 
     def _start_split(self):
+        # a spare opened before a topic was added has it added now, in the bag's order
+        for topic in self._topics:
+            if topic.name not in self._writer.connections_by_topic:
+                self._writer.connections_by_topic[topic.name] = self._writer.connect(topic)
         self._connections = self._writer.connections_by_topic
         self._count = 0
         self._opened = time.monotonic()

@@ -43,6 +43,10 @@ class RunRecording:
         if inbox:
             self._do(lambda bag: [bag.write(topic, t_ns, raw) for topic, raw in inbox])
 
+    def add_topic(self, topic) -> None:
+        """Record ``topic`` (a BagTopic) too from now on."""
+        self._do(lambda bag: bag.add_topic(topic))
+
     def write(self, topic: str, t_ns: int, raw: bytes) -> None:
         self._do(lambda bag: bag.write(topic, t_ns, raw))
 

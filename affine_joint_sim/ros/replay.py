@@ -41,6 +41,7 @@ from affine_joint_sim.ros.topics import (COMMAND_KEYS, SENSOR_KEYS, interfaces_b
                                          load_topics, message_class)
 from affine_joint_sim.ros.transforms import TransformTree
 from affine_joint_sim.scene import Scene, SceneError, topic_token
+from affine_joint_sim.spawning import DELETE_EVENT, SPAWN_EVENT, apply_edit
 
 __all__ = ['ReplayError', 'Divergence', 'read_bag', 'replay', 'publish']
 
@@ -254,7 +255,8 @@ class _Resimulation:
         except (ValueError, RuntimeError) as exc:
             raise ReplayError(f'--device {device}: {exc}') from None
         # every robot's joints, scene names (a robot's joint_states name them as in its URDF)
-        self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'))
+        self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'),
+                                       every=True)
         self.wrapped = self.states.wrapped
         self.buffer = RobotCommands(self.sim)
         # per-joint topics carry the joint's topic token, each robot's buffer takes its name
@@ -304,6 +306,25 @@ class _Resimulation:
             self.dropped += self.buffer.buffers[robot].take(m.kind, joint, m.decode())
         self.loop.step()
         self.previous, self.current = self.current, self._sample()
+
+    def edit(self, bag_ns: int, event: dict):
+        """Apply a recorded spawn or delete (``spawning.apply_edit``) after the step at or
+        after its time; one the scene refuses (a what-if with another scene) is counted in
+        ``dropped``."""
+        self._reach(bag_ns - self.epoch_ns)
+        try:
+            apply_edit(self.sim, event)
+        except (SceneError, KeyError, ValueError) as exc:
+            self.dropped.append(f'{event["event"]} of {event["entity"]!r} at '
+                                f'{(bag_ns - self.epoch_ns) * 1e-9:.6f} s: {exc}')
+            return
+        self.buffer.refresh(self.sim)
+        self.joint_of_token = [{topic_token(name): name for name in b.joint_names}
+                               for b in self.buffer.buffers]
+        self.states = JointStateFiller(self.sim, message_class('sensor_msgs/msg/JointState'),
+                                       every=True)
+        self.wrapped = self.states.wrapped
+        self.previous = self.current = self._sample()
 
     def robot_of(self, topic: str) -> int:
         """The robot (index of ``buffer.faces``) of a recorded topic."""
@@ -379,7 +400,7 @@ def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
 
     recorded = any(m.kind in _SENSOR_TYPE for m in bag.messages)
     run = _Resimulation(scene, device, each_state if hooks else None, sensors=recorded)
-    names = run.states.names
+    names = list(run.states.names)
     divergence = Divergence(names, np.zeros(len(names)), np.zeros(len(names)))
     try:
         _replay_messages(bag, run, writer, divergence, scene)
@@ -391,7 +412,6 @@ def replay(bag: RecordedBag, scene_path=None, device: str = 'cpu', out=None,
 
 def _replay_messages(bag, run, writer, divergence, scene):
     """Feed the bag's messages to ``run`` in order; accumulate ``divergence``."""
-    names = run.states.names
     started = False
     for m in bag.messages:
         if m.kind in COMMAND_KEYS:
@@ -408,27 +428,14 @@ def _replay_messages(bag, run, writer, divergence, scene):
                 run.reset(m.t_ns)
             if event.get('event') == PLACEMENT_EVENT:
                 run.place(m.t_ns, event)
+            if event.get('event') in (SPAWN_EVENT, DELETE_EVENT):
+                run.edit(m.t_ns, event)
             if 'command_timeout' in event:
                 run.buffer.command_timeout = float(event['command_timeout'])
             if 'command_joints' in event:
                 run.buffer.array_joints = list(event['command_joints'])
         elif m.kind == 'joint_states':
-            msg = m.decode()
-            prefix = run.buffer.buffers[run.robot_of(m.topic)].prefix
-            scene_names = [prefix + name for name in msg.name]
-            if not set(scene_names) <= set(names) or len(set(scene_names)) < len(scene_names):
-                raise ReplayError(f'{bag.path}: {m.topic} names {list(msg.name)}, but the '
-                                  f'scene {scene.name!r} has moving joints {names}')
-            index = [names.index(name) for name in scene_names]
-            angle, velocity = run.at(msg.header.stamp.sec * 1_000_000_000 +
-                                     msg.header.stamp.nanosec)
-            d_angle = angle[index] - np.asarray(msg.position)
-            d_angle = np.abs(np.where(run.wrapped[index], _wrap(d_angle), d_angle))
-            d_velocity = np.abs(velocity[index] - np.asarray(msg.velocity))
-            divergence.max_angle[index] = np.maximum(divergence.max_angle[index], d_angle)
-            divergence.max_velocity[index] = np.maximum(divergence.max_velocity[index],
-                                                        d_velocity)
-            divergence.states += 1
+            _compare_states(m, run, divergence, bag, scene)
         elif m.kind in _SENSOR_TYPE:
             _compare_sensor(m, run, divergence)
     divergence.dropped = run.dropped
@@ -437,6 +444,33 @@ def _replay_messages(bag, run, writer, divergence, scene):
                           'affine_joint_sim node (its bag time must be sim time)')
     if divergence.states == 0:
         raise ReplayError(f'{bag.path}: the bag holds no joint_states to compare')
+
+
+def _compare_states(m: _Message, run: _Resimulation, divergence: Divergence, bag,
+                    scene) -> None:
+    """Compare a recorded joint_states message (of the robot its topic names) with the
+    re-simulated joints of its names; a joint spawned since the start joins ``divergence``."""
+    msg = m.decode()
+    names = run.states.names
+    prefix = run.buffer.buffers[run.robot_of(m.topic)].prefix
+    scene_names = [prefix + name for name in msg.name]
+    if not set(scene_names) <= set(names) or len(set(scene_names)) < len(scene_names):
+        raise ReplayError(f'{bag.path}: {m.topic} names {list(msg.name)}, but the scene '
+                          f'{scene.name!r} has moving joints {names}')
+    for name in scene_names:
+        if name not in divergence.joint_names:
+            divergence.joint_names.append(name)
+            divergence.max_angle = np.append(divergence.max_angle, 0.0)
+            divergence.max_velocity = np.append(divergence.max_velocity, 0.0)
+    index = [names.index(name) for name in scene_names]
+    into = [divergence.joint_names.index(name) for name in scene_names]
+    angle, velocity = run.at(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec)
+    d_angle = angle[index] - np.asarray(msg.position)
+    d_angle = np.abs(np.where(run.wrapped[index], _wrap(d_angle), d_angle))
+    d_velocity = np.abs(velocity[index] - np.asarray(msg.velocity))
+    divergence.max_angle[into] = np.maximum(divergence.max_angle[into], d_angle)
+    divergence.max_velocity[into] = np.maximum(divergence.max_velocity[into], d_velocity)
+    divergence.states += 1
 
 
 def _compare_sensor(m: _Message, run: _Resimulation, divergence: Divergence) -> None:
@@ -500,7 +534,7 @@ class _OutBag:
             raise ReplayError(f'--out: {exc}') from None
         self.recorder.write(scene_topic, 0, serialize_message(
             topics['scene'].msg_class(data=scene.to_yaml())))
-        self.states = None
+        self._scene = None      # the scene the fillers and the tree were made for
 
     @staticmethod
     def _name(bag, key, topics):
@@ -509,10 +543,13 @@ class _OutBag:
 
     def state(self, bag_ns, stamp_ns, sim):
         """Write the stepper's current joint state (``stamp_ns`` since the last reset)."""
-        if self.states is None:
-            self.states = [JointStateFiller(sim, message_class('sensor_msgs/msg/JointState'),
-                                            face.robot) for face in self.faces]
-        for topic, filler in zip(self.states_topics, self.states):
+        if self._scene is not sim.scene:     # the start, or a spawn or delete since
+            self._scene, self.tree = sim.scene, None
+            robots = {face.key: face.robot for face in robot_faces(sim.scene)}
+            self.states = [(topic, JointStateFiller(sim, message_class(
+                'sensor_msgs/msg/JointState'), robots[face.key]))
+                for topic, face in zip(self.states_topics, self.faces) if face.key in robots]
+        for topic, filler in self.states:
             self.recorder.write(topic, bag_ns, serialize_message(filler.fill(sim, stamp_ns)))
         if self.sensors:
             for name, raw in self.sensors.fill(sim.sensors, stamp_ns):
@@ -598,12 +635,16 @@ def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
 
 
 def _recorded_robots(bag: RecordedBag) -> list[RobotFace]:
-    """The robots of the bag's scene as faces (their namespaces only; one for a scene
-    without several robots)."""
+    """The robots of the bag's scene and of its spawn events as faces (their namespaces
+    only), after the scene's own."""
     data = yaml.safe_load(bag.scene_yaml) if bag.scene_yaml else None
     robots = data.get('robots') if isinstance(data, dict) else None
-    return [RobotFace(None, r['namespace'] + '/', None) for r in robots or []] or \
-        [RobotFace(None, '', None)]
+    namespaces = [r['namespace'] for r in robots or []]
+    for m in bag.messages:
+        event = yaml.safe_load(m.decode().data) if m.kind == 'events' else None
+        if isinstance(event, dict) and event.get('event') == SPAWN_EVENT and 'urdf' in event:
+            namespaces.append(event.get('namespace') or event['entity'])
+    return [RobotFace(None, '', None)] + [RobotFace(None, ns + '/', None) for ns in namespaces]
 
 
 def main(args) -> int:

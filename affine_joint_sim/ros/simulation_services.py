@@ -8,21 +8,28 @@ stopped = paused at the initial state; quitting ends the run as Ctrl-C does), Re
 the node's loop as in play, ``ros.step_grant``: in lockstep each waits for the controllers;
 each step published and recorded like any other; the action gives feedback after each step
 and can be canceled), GetEntities (every body; ``filters.filter`` a regular expression on names),
-GetEntityState (a body's pose and twist in ``frame_id``) and SetEntityState (a free body's,
-``placement``: recorded as an event that replay applies again). Not served, and not listed in
-the features: spawning and deleting (a scene is fixed at start), worlds, named poses, bounds,
-tags and categories. Every answer fills the standard's ``Result`` (code and message).
+GetEntityState (a body's pose and twist in ``frame_id``), SetEntityState (a free body's,
+``placement``: recorded as an event that replay applies again), SpawnEntity (a URDF robot from
+a file or a string, or a body of the scene schema as YAML, ``spawning``) and DeleteEntity
+(a robot or a body in no joint), each recorded as an event that replay applies again. Not
+served, and not listed in the features: worlds, named poses, bounds, tags, categories and
+spawnables. Every answer fills the standard's ``Result`` (code and message).
 """
 
 import re
+from pathlib import Path
+from urllib.parse import unquote
 
 import numpy as np
+import yaml
 from rclpy.callback_groups import ReentrantCallbackGroup
 
 from affine_joint_sim.placement import place, placement_event
 from affine_joint_sim.poses import rigid_transforms
 from affine_joint_sim.rotations import quaternion_from_matrix
+from affine_joint_sim.rotations import quaternion_matrix
 from affine_joint_sim.scene import SceneError
+from affine_joint_sim.spawning import DELETE_EVENT, entity_names, spawn_event
 
 __all__ = ['SimulationServices']
 
@@ -45,7 +52,8 @@ class SimulationServices:
                          f.SIMULATION_STATE_GETTING, f.SIMULATION_STATE_SETTING,
                          f.SIMULATION_STATE_PAUSE, f.STEP_SIMULATION_SINGLE,
                          f.STEP_SIMULATION_MULTIPLE, f.STEP_SIMULATION_ACTION,
-                         f.ENTITY_STATE_GETTING, f.ENTITY_STATE_SETTING]
+                         f.ENTITY_STATE_GETTING, f.ENTITY_STATE_SETTING, f.SPAWNING,
+                         f.DELETING, f.SPAWNING_RESOURCE_STRING]
         # their own group: while a step request awaits its steps, the node's other callbacks
         # (the commands a lockstep step waits for) and these services go on in the one thread
         group = ReentrantCallbackGroup()
@@ -57,7 +65,9 @@ class SimulationServices:
                 ('step_simulation', srv.StepSimulation, self._step),
                 ('get_entities', srv.GetEntities, self._entities),
                 ('get_entity_state', srv.GetEntityState, self._entity_state),
-                ('set_entity_state', srv.SetEntityState, self._set_entity_state)):
+                ('set_entity_state', srv.SetEntityState, self._set_entity_state),
+                ('spawn_entity', srv.SpawnEntity, self._spawn),
+                ('delete_entity', srv.DeleteEntity, self._delete)):
             node.create_service(kind, f'~/{name}', handler, callback_group=group)
         from rclpy.action import ActionServer
         from simulation_interfaces.action import SimulateSteps
@@ -71,8 +81,10 @@ class SimulationServices:
 
     def _features(self, request, response):
         response.features.features = self.features
-        response.features.custom_info = ('affine_joint_sim: entities are the scene\'s bodies; '
-                                         'a reset restores time and state together')
+        response.features.spawn_formats = ['urdf', 'yaml']
+        response.features.custom_info = ('affine_joint_sim: entities are the scene\'s bodies '
+                                         '(robots too for spawning and deleting); a reset '
+                                         'restores time and state together')
         return response
 
     def _state_code(self) -> int:
@@ -269,3 +281,129 @@ class SimulationServices:
         if outcome is None:
             return self._result(response, results.RESULT_OPERATION_FAILED, 'node stopping')
         return self._result(response, *outcome)
+
+    def _spawn(self, request, response):
+        """SpawnEntity: a URDF robot (``uri`` a file, or ``resource_string`` starting with
+        ``<``) under ``entity_namespace``, or a body (a ``.yaml`` file or a YAML mapping: a
+        scene ``bodies`` entry), at ``initial_pose`` in ``frame_id``; ``name`` required
+        (``allow_renaming`` gives a taken one a number). Recorded as an event."""
+        results = response.result
+        spawn = self._spawn_request(request, response)
+        if isinstance(spawn, type(response)):
+            return spawn
+        event = spawn_event(**spawn)
+
+        def apply():
+            try:
+                self.node.edit_scene(event)
+            except (SceneError, ValueError, KeyError) as exc:
+                return _spawn_code(response, str(exc)), str(exc)
+            self.stopped = False
+            return results.RESULT_OK, ''
+
+        outcome = self.node._in_stepping_thread(apply)
+        if outcome is None:
+            return self._result(response, results.RESULT_OPERATION_FAILED, 'node stopping')
+        response.entity_name = event['entity'] if outcome[0] == results.RESULT_OK else ''
+        return self._result(response, *outcome)
+
+    def _spawn_request(self, request, response):
+        """The ``spawn_event`` arguments of a SpawnEntity request, or the response saying why
+        it is refused."""
+        name, world = request.name, self.node.config['frame_id']
+        taken = set(self.node.sim.body_names) | set(entity_names(self.node.sim.scene))
+        if request.allow_renaming and (not name or name in taken):
+            base, number = name or 'entity', 1
+            while f'{base}_{number}' in taken:
+                number += 1
+            name = f'{base}_{number}'
+        if not re.fullmatch(r'[A-Za-z][A-Za-z0-9_]*', name):
+            return self._result(response, response.NAME_INVALID, f'name {name!r}: letters, '
+                                'digits and _, starting with a letter (it prefixes a robot\'s '
+                                'links and topics)')
+        if name in taken:
+            return self._result(response, response.NAME_NOT_UNIQUE, f'name {name!r} is taken')
+        namespace = request.entity_namespace.strip('/') or None
+        if namespace and not re.fullmatch(r'[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*',
+                                          namespace):
+            return self._result(response, response.NAMESPACE_INVALID,
+                                f'entity_namespace {request.entity_namespace!r}')
+        pose = request.initial_pose
+        if pose.header.frame_id not in ('', world):
+            return self._result(response, response.result.RESULT_FEATURE_UNSUPPORTED,
+                                f'initial_pose.header.frame_id {pose.header.frame_id!r}: poses '
+                                f'are in {world!r} (or \'\', the same) only')
+        p, o = pose.pose.position, pose.pose.orientation
+        norm = float(np.linalg.norm([o.x, o.y, o.z, o.w]))
+        if not np.isfinite([p.x, p.y, p.z, norm]).all() or abs(norm - 1.0) > 1e-6:
+            return self._result(response, response.INVALID_POSE, f'initial_pose: a finite '
+                                f'position and a unit quaternion (norm {norm:.6g})')
+        matrix = np.eye(4)
+        matrix[:3, :3], matrix[:3, 3] = quaternion_matrix(o.x, o.y, o.z, o.w), (p.x, p.y, p.z)
+        resource = _resource(request)
+        if resource is None:
+            return self._result(response, response.NO_RESOURCE, 'give uri or resource_string')
+        if isinstance(resource, tuple):
+            return self._result(response, *resource)
+        return {'name': name, 'pose': matrix, 'namespace': namespace, **resource}
+
+    def _delete(self, request, response):
+        """DeleteEntity: a robot or a body in no joint (GetEntities lists the bodies).
+        Recorded as an event."""
+        results = response.result
+        if request.entity not in entity_names(self.node.sim.scene):
+            return self._result(response, results.RESULT_NOT_FOUND, f'no entity '
+                                f'{request.entity!r} to delete (robots and bodies in no '
+                                f'joint: {", ".join(entity_names(self.node.sim.scene))})')
+
+        def apply():
+            try:
+                self.node.edit_scene({'event': DELETE_EVENT, 'entity': request.entity})
+            except SceneError as exc:           # a sensor sits on it
+                return results.RESULT_OPERATION_FAILED, str(exc)
+            return results.RESULT_OK, ''
+
+        outcome = self.node._in_stepping_thread(apply)
+        if outcome is None:
+            return self._result(response, results.RESULT_OPERATION_FAILED, 'node stopping')
+        return self._result(response, *outcome)
+
+
+def _resource(request):
+    """A SpawnEntity request's entity: {'urdf': path or text} or {'body': entry}; None without
+    any; (code, message) when it cannot be read."""
+    from simulation_interfaces.srv import SpawnEntity
+
+    codes = SpawnEntity.Response
+    if request.uri:
+        uri = request.uri
+        path = Path(unquote(uri[len('file://'):]) if uri.startswith('file://') else uri)
+        if not path.is_file():
+            return codes.RESOURCE_PARSE_ERROR, f'uri {uri!r}: no such file here'
+        if path.suffix in ('.yaml', '.yml'):
+            text = path.read_text(encoding='utf-8', errors='replace')
+        else:
+            return {'urdf': str(path.resolve())}
+    elif request.resource_string.strip():
+        text = request.resource_string
+        if text.lstrip().startswith('<'):
+            return {'urdf': text}
+    else:
+        return None
+    try:
+        body = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        return codes.RESOURCE_PARSE_ERROR, f'not YAML: {exc}'
+    if not isinstance(body, dict):
+        return codes.UNSUPPORTED_FORMAT, ('a URDF (starting with <) or a YAML mapping: a '
+                                          'scene bodies entry')
+    return {'body': {k: v for k, v in body.items() if k != 'name'}}
+
+
+def _spawn_code(response, message: str) -> int:
+    """The SpawnEntity result code of a refused spawn's message."""
+    if ' inside ' in message:
+        return response.INVALID_POSE
+    if 'not found' in message:
+        return response.MISSING_ASSETS
+    return response.RESOURCE_PARSE_ERROR

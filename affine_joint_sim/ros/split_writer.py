@@ -88,12 +88,12 @@ class SplitWriter(Writer):
         try:
             self.open()
             self.file = scratch / self.storage.path.name
-            self.connections_by_topic = {t.name: self._connect(t) for t in topics}
+            self.connections_by_topic = {t.name: self.connect(t) for t in topics}
         except BaseException:
             self.discard()
             raise
 
-    def _connect(self, topic: BagTopic) -> Connection:
+    def connect(self, topic: BagTopic) -> Connection:
         """``Writer.add_connection`` for a topic of the typestore, with the QoS text from the C
         emitter (rosbags dumps it with pure-Python YAML: most of the cost of a split)."""
         msgdef, _ = _TYPESTORE.generate_msgdef(topic.type, ros_version=2)

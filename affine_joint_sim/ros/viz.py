@@ -204,6 +204,19 @@ class VizPublisher:
         if self.tree is not None:
             self._publish(self.publishers['tf'], self.tree.moving_message(sim_time_ns), t_ns)
 
+    def rebuild(self, sim, frame_id: str, t_ns: int) -> None:
+        """Follow a spawn or delete: the views of ``sim``'s scene now, the viewers' markers
+        cleared and /tf_static published again."""
+        if not self.publishers:
+            return
+        self.reset(t_ns)
+        self.messages = VizMessages(sim, frame_id)
+        self.arrows = ContactArrows(sim, frame_id) if sim.scene.contact is not None \
+            or sim.scene.ground is not None else None
+        if self.tree is not None:
+            self.tree = TransformTree(sim, frame_id)
+            self.publish_static(t_ns)
+
     def reset(self, t_ns: int) -> None:
         """Clear the viewers' markers (DELETEALL); the next state is published in full."""
         self.schedule.reset()

@@ -104,12 +104,14 @@ def _geometries(body) -> list[Collision]:
     return [_shape_collision(body.shape)] if body.collision == 'shape' else body.collision
 
 
-def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
+def contact_arrays(scene, q0: np.ndarray, starts=None) -> tuple[dict, list[str]]:
     """(the contact model fields of ``scene`` with initial states ``q0`` (n_bodies, 12), the
     name of each static thing: ``ground`` or ``ground[k]``, then the fixed bodies, then the
     fixed body of each static edge and each static vertex); a scene without ``contact`` and
     ``ground`` gets empty tables and has_contact 0. Raises SceneError if a pair starts
-    touching or a contact point inside a half-space or a static shape."""
+    touching or a contact point inside a half-space or a static shape, at ``q0`` or at each
+    state of ``starts`` where given (the states a changed scene goes on from:
+    ``Stepper.spawn``)."""
     on = scene.contact is not None or scene.ground is not None
     settings = scene.contact or Contact()
     bodies, rests, radii = [], [], []
@@ -190,7 +192,8 @@ def contact_arrays(scene, q0: np.ndarray) -> tuple[dict, list[str]]:
                                           for ma in body_mu], dtype=np.float64).reshape(n, n))
     arrays['touch_first'] = touch_first(arrays)
     names += shape_names + [scene.bodies[f].name for f in fixed.edge_owner + fixed.vertex_owner]
-    refuse_touching(scene, q0, arrays, names)
+    for start in [q0] if starts is None else starts:
+        refuse_touching(scene, start, arrays, names)
     return arrays, names
 
 

@@ -25,8 +25,8 @@ from affine_joint_sim.sim_warnings import SimulationWarning
 
 NEAR_ROOM_LEAST = 64    # pairs: the least room of a near list (HostModel.near_room)
 
-__all__ = ['HostModel', 'build_model', 'jacobian', 'direction_jacobian', 'linear_pairs',
-           'residual_jacobians', 'largest_step_efforts']
+__all__ = ['HostModel', 'build_model', 'initial_states', 'jacobian', 'direction_jacobian',
+           'linear_pairs', 'residual_jacobians', 'largest_step_efforts']
 
 
 class HostModel:
@@ -106,14 +106,23 @@ def _joint_frame(axis) -> tuple[np.ndarray, np.ndarray]:
     return n, b / pm.norm(b)
 
 
-def build_model(scene) -> HostModel:
-    """Precompute the constant arrays of ``scene``; warn about torques that cannot act."""
+def initial_states(scene) -> np.ndarray:
+    """The bodies' states q = [p, A] (n_bodies, 12) at t = 0: A their rotation."""
+    q0 = np.zeros((len(scene.bodies), 12))
+    for i, body in enumerate(scene.bodies):
+        q0[i, :3], q0[i, 3:] = body.position, rotation_matrix(body.orientation).reshape(9)
+    return q0
+
+
+def build_model(scene, starts=None) -> HostModel:
+    """Precompute the constant arrays of ``scene``; warn about torques that cannot act.
+    ``starts``: the states (n_bodies, 12) it goes on from, checked for touching instead of
+    its initial state (``contact_arrays``)."""
     nb = len(scene.bodies)
     props = [body_mass_properties(b) for b in scene.bodies]
     rotations = [rotation_matrix(b.orientation) for b in scene.bodies]
-    q0, v0 = np.zeros((nb, 12)), np.zeros((nb, 12))
+    q0, v0 = initial_states(scene), np.zeros((nb, 12))
     for i, (body, rot) in enumerate(zip(scene.bodies, rotations)):
-        q0[i, :3], q0[i, 3:] = body.position, rot.reshape(9)
         if not body.fixed:
             v0[i, :3] = body.linear_velocity
             v0[i, 3:] = pm.matmul(_skew(body.angular_velocity), rot).reshape(9)
@@ -152,7 +161,7 @@ def build_model(scene) -> HostModel:
     nonlinear = np.array([not JOINT_KINDS[code].linear for code in joints['joint_type']],
                          dtype=bool)
     state_coupling = bool((state_terms | (moving & nonlinear)).any())
-    contact, static_names = contact_arrays(scene, q0)
+    contact, static_names = contact_arrays(scene, q0, starts)
     active += ['contact'] * contact['has_contact']
     active += ['body contact'] * bool(len(contact['touch_a']))
     values = dict(
