@@ -48,6 +48,11 @@ def test_two_urdf_robots_are_one_scene_with_prefixed_names_and_move_alike():
         sim.step()
     left, right = np.split(sim.angles, 2)
     assert np.abs(left - right).max() < 1e-8 and np.abs(left[1] - 0.3) > 0.05
+    # on /tf each robot's links hang under its prefix from its root at its base pose
+    roots = sim.link_transforms[[sim.link_names.index(f'{side}/world')
+                                 for side in ('left', 'right')]]
+    np.testing.assert_allclose(roots[:, :3, 3], [[0.0, 0.6, 0.0], [0.0, -0.6, 0.0]], atol=1e-12)
+    np.testing.assert_allclose(roots[0, :3, :3] @ [1.0, 0.0, 0.0], [0.0, -1.0, 0.0], atol=1e-12)
 
 
 @pytest.mark.parametrize('change, message', [
