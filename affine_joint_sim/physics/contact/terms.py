@@ -706,17 +706,6 @@ def build(t) -> SimpleNamespace:
             scratch.contact_block[env, j] += oriented
 
     @wp.func
-    def stiffen(model: Model, scratch: Scratch, env: int, body: int, other: int, c: scalar,
-                w: vec12, w_other: vec12):
-        """c w wᵀ into the Hessian of a pair's bodies: diagonal blocks and, for two bodies,
-        their coupling c w w_otherᵀ."""
-        scratch.hessian[env, body] += wp.outer(c * w, w)
-        if wp.static(bodies):
-            if other >= 0:
-                scratch.hessian[env, other] += wp.outer(c * w_other, w_other)
-                couple(model, scratch, env, body, other, wp.outer(c * w, w_other))
-
-    @wp.func
     def clamped_gap(model: Model, q: wp.array2d(dtype=vec12), env: int, p: int):
         """(min(d(q), d̂) [m] of pair p: its distance within the barrier's reach; its normal n
         and rest points x̄, ȳ at q)."""
@@ -743,18 +732,15 @@ def build(t) -> SimpleNamespace:
         return found
 
     @wp.func
-    def damper(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int):
-        """(Ψ [J·s²], dΨ/dd [N·s²], d²Ψ/dd² [kg], n, x̄, ȳ) of the contact damper of the k-th
-        listed pair p at q,
-        d = min(d(q), d̂), a = d − min(d_n, d̂): ½ c dt a², a viscous force −c ḋ (ḋ ≈ a/dt)
-        against the contact's approach and its opening, until the opening pair passes its
-        ``release`` s; beyond s the damper pulls exactly as hard as the barrier pushes,
-        Ψ = ½ c dt (s − d_n)² + dt² w (b(s) − b(d)) (a contact is never pulled), and its
-        curvature cancels the barrier's (``add_contact``). Flat beyond d̂."""
-        p = listed_pair(model, scratch, env, k)
+    def damper_of(model: Model, scratch: Scratch, env: int, k: int, p: int, d: scalar,
+                  d_n: scalar):
+        """(Ψ [J·s²], dΨ/dd [N·s²], d²Ψ/dd² [kg]) of the contact damper of the k-th listed
+        pair p at d = min(d(q), d̂), a = d − d_n, d_n = min(d(q_n), d̂): ½ c dt a², a viscous
+        force −c ḋ (ḋ ≈ a/dt) against the contact's approach and its opening, until the
+        opening pair passes its ``release`` s; beyond s the damper pulls exactly as hard as
+        the barrier pushes, Ψ = ½ c dt (s − d_n)² + dt² w (b(s) − b(d)) (a contact is never
+        pulled), and its curvature cancels the barrier's (``add_pairs``). Flat beyond d̂."""
         c = scratch.normal_damping[env, k]
-        d, n, rest, rest_o = clamped_gap(model, q, env, p)
-        d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
         s = scratch.damping_release[env, k]
         energy = half * c * (d - d_n) * (d - d_n)
         gradient = c * (d - d_n)
@@ -768,46 +754,31 @@ def build(t) -> SimpleNamespace:
             energy = half * c * (s - d_n) * (s - d_n) + weight * (e_s - e)
             gradient = -weight * b1
             curvature = -weight * wp.max(b2, zero)
+        return energy, gradient, curvature
+
+    @wp.func
+    def damper(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, k: int):
+        """(Ψ, dΨ/dd, d²Ψ/dd², n, x̄, ȳ) of the k-th listed pair's damper at q
+        (``damper_of``), with its normal and rest points at q."""
+        p = listed_pair(model, scratch, env, k)
+        d, n, rest, rest_o = clamped_gap(model, q, env, p)
+        d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
+        energy, gradient, curvature = damper_of(model, scratch, env, k, p, d, d_n)
         return energy, gradient, curvature, n, rest, rest_o
 
     @wp.func
-    def damping_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
-                       env: int):
-        """Σ Ψ over the pairs with lagged damping [J·s²] (``damper``)."""
-        energy = zero
-        for k in range(listed(model, scratch, env)):
-            if scratch.normal_damping[env, k] > zero:
-                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, k)
-                energy += psi
-        return energy
-
-    @wp.func
-    def add_damping(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-                    hessian: int):
-        """Contact damping's gradient dΨ/dd w into scratch.rhs and d²Ψ/dd² w wᵀ (``damper``;
-        the distance's curvature left out, as for the barrier: with the barrier's, never
-        negative)."""
-        for k in range(listed(model, scratch, env)):
-            if scratch.normal_damping[env, k] > zero:
-                psi, dpsi, ddpsi, n, rest, rest_o = damper(model, q, scratch, env, k)
-                body, other = pair_bodies(model, listed_pair(model, scratch, env, k))
-                w = jacobian_transpose(rest, n)
-                w_o = -jacobian_transpose(rest_o, n)
-                push(scratch, env, body, other, dpsi, w, w_o)
-                if hessian != 0:
-                    stiffen(model, scratch, env, body, other, ddpsi, w, w_o)
-
-    @wp.func
-    def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int,
-             body: int, other: int):
+    def slip_of(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int,
+                body: int, other: int, n: vec3, rest_n: vec3, radius: scalar, rest_other: vec3,
+                radius_o: scalar):
         """(u₁, u₂, w₁, w₂, v₁, v₂): the tangential displacement [m] since the start of the
-        step, along pair p's friction basis (t₁, t₂ = n × t₁) lagged at q_n, of the material
-        point that touches (``touch_rest`` at q_n: a sphere's or capsule's surface point, so
-        friction turns it), relative to the other body's where that moves; its gradients
-        J(x̄_c)ᵀ t over the body and −J(ȳ_c)ᵀ t over the other."""
+        step, along pair p's friction basis (t₁, t₂ = n × t₁) lagged at q_n (its normal n and
+        rest points there: ``gap_at`` at q_n), of the material point that touches
+        (``touch_rest`` at q_n: a sphere's or capsule's surface point, so friction turns it),
+        relative to the other body's where that moves; its gradients J(x̄_c)ᵀ t over the body
+        and −J(ȳ_c)ᵀ t over the other."""
         q_n = scratch.q_n[env, body]
-        d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_n, env, p)
-        rest = touch_rest(q_n, rest, radius, n)
+        rest = touch_rest(q_n, rest_n, radius, n)
+        rest_o = rest_other
         moved = world_point(q[env, body], rest) - world_point(q_n, rest)
         t1 = pair_tangent(model, p, n)
         t2 = wp.cross(n, t1)
@@ -822,6 +793,14 @@ def build(t) -> SimpleNamespace:
                 v2 = -jacobian_transpose(rest_o, t2)
         return (wp.dot(t1, moved), wp.dot(t2, moved), jacobian_transpose(rest, t1),
                 jacobian_transpose(rest, t2), v1, v2)
+
+    @wp.func
+    def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int,
+             body: int, other: int):
+        """``slip_of`` with pair p's normal and rest points at q_n."""
+        d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_n, env, p)
+        return slip_of(model, q, scratch, env, p, body, other, n, rest, radius, rest_o,
+                       radius_o)
 
     @wp.func
     def smooth_friction(y: scalar, eps: scalar):
@@ -845,112 +824,150 @@ def build(t) -> SimpleNamespace:
         return wp.outer(h11 * a1 + h12 * a2, b1) + wp.outer(h12 * a1 + h22 * a2, b2)
 
     @wp.func
-    def friction_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch,
-                        env: int):
-        """Σ μ dt²λ f0(|u|) over the pairs with a lagged normal force [J·s²]."""
-        energy = zero
-        eps = model.contact_eps_velocity * model.dt
-        for k in range(listed(model, scratch, env)):
-            p = listed_pair(model, scratch, env, k)
-            force = scratch.friction_normal[env, k]
-            if force > zero:
-                body, other = pair_bodies(model, p)
-                u1, u2, w1, w2, v1, v2 = slip(model, q, scratch, env, p, body, other)
-                f0, f1_over_y = smooth_friction(wp.sqrt(u1 * u1 + u2 * u2), eps)
-                energy += pair_friction(model, p, body, other) * force * f0
-        return energy
+    def friction_hessian(weight: scalar, f1_over_y: scalar, u1: scalar, u2: scalar, y: scalar,
+                         eps: scalar):
+        """(h11, h12, h22): IPC's PSD friction Hessian in the tangent plane at slip (u1, u2),
+        |u| = y, for the weight μλ (dt² λ lagged)."""
+        h11 = weight * f1_over_y
+        h22 = h11
+        h12 = zero
+        if y >= eps:            # μλ/y³ ū ūᵀ, ū = (−u₂, u₁)
+            c = weight / (y * y * y)
+            h11 = c * u2 * u2
+            h22 = c * u1 * u1
+            h12 = -c * u1 * u2
+        elif y > zero:          # μλ [(f1/y) I − u uᵀ / (eps² y)]
+            c = weight / (eps * eps * y)
+            h11 -= c * u1 * u1
+            h22 -= c * u2 * u2
+            h12 = -c * u1 * u2
+        return h11, h12, h22
 
     @wp.func
-    def add_friction(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-                     hessian: int):
-        """Friction's gradient into scratch.rhs and, with ``hessian``, its PSD Hessian
-        (IPC's closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂] over the
-        pair's bodies) into the diagonal blocks and a pair of bodies' coupling. Returns the
-        number of pairs with friction."""
+    def pairs_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
+        """The listed pairs' energy at q [J·s²]: the barrier's dt² Σ m b over the pairs closer
+        than d̂ (m: ``pair_weight``; +∞ if a pair is at or beyond the boundary), friction's
+        Σ μ dt²λ f0(|u|) over those with a lagged normal force and the damper's Σ Ψ over
+        those with lagged damping (``damper_of``): one pass, each pair's distance taken once
+        at q and, for friction and damping, once at q_n."""
+        barrier_energy = zero
+        friction_energy = zero
+        damping_energy = zero
         eps = model.contact_eps_velocity * model.dt
+        d_hat = model.contact_d_hat
+        for k in range(listed(model, scratch, env)):
+            p = listed_pair(model, scratch, env, k)
+            on = pair_on(model, p)
+            damping = scratch.normal_damping[env, k]
+            force = scratch.friction_normal[env, k]
+            if on or damping > zero or force > zero:
+                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
+                body, other = pair_bodies(model, p)
+                if on:
+                    if d <= zero:
+                        barrier_energy = infinity
+                    elif d < d_hat:
+                        e, b1, b2 = barrier(model, d)
+                        weight = pair_weight(model, scratch.q_n[env, body],
+                                             other_state(scratch.q_n, env, body, other), p)
+                        barrier_energy += model.dt * model.dt * weight * e
+                if damping > zero or force > zero:
+                    d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(
+                        model, scratch.q_n, env, p)
+                    if force > zero:
+                        u1, u2, w1, w2, v1, v2 = slip_of(model, q, scratch, env, p, body, other,
+                                                         n_n, rest_n, radius_n, rest_on,
+                                                         radius_on)
+                        f0, f1_over_y = smooth_friction(wp.sqrt(u1 * u1 + u2 * u2), eps)
+                        friction_energy += pair_friction(model, p, body, other) * force * f0
+                    if damping > zero:
+                        psi, dpsi, ddpsi = damper_of(model, scratch, env, k, p,
+                                                     wp.min(d, d_hat), wp.min(d_n, d_hat))
+                        damping_energy += psi
+        return barrier_energy + friction_energy + damping_energy
+
+    @wp.func
+    def add_pairs(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
+                  hessian: int):
+        """The listed pairs' gradients into scratch.rhs and, with ``hessian``, their Hessians
+        into the diagonal blocks and a pair of bodies' coupling, in one pass, each pair's
+        distance taken once at q and, for friction and damping, once at q_n, and each of its
+        blocks written once: the barrier's and the damper's along the normal (dΨ/dd w and the
+        curvature w wᵀ, the distance's own left out: with the barrier's, never negative) and
+        friction's (IPC's PSD closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂]
+        over the pair's bodies). Returns the active pairs plus those with friction (an active
+        barrier's or friction's curvature changes fast: no last factors)."""
         count = int(0)
-        for k in range(listed(model, scratch, env)):
-            p = listed_pair(model, scratch, env, k)
-            force = scratch.friction_normal[env, k]
-            weight = zero
-            body = int(0)
-            other = int(-1)
-            if force > zero:
-                body, other = pair_bodies(model, p)
-                weight = pair_friction(model, p, body, other) * force
-            if weight > zero:
-                count += 1
-                u1, u2, w1, w2, v1, v2 = slip(model, q, scratch, env, p, body, other)
-                y = wp.sqrt(u1 * u1 + u2 * u2)
-                f0, f1_over_y = smooth_friction(y, eps)
-                push(scratch, env, body, other, weight * f1_over_y, u1 * w1 + u2 * w2,
-                     u1 * v1 + u2 * v2)
-                if hessian != 0:
-                    h11 = weight * f1_over_y
-                    h22 = h11
-                    h12 = zero
-                    if y >= eps:            # μλ/y³ ū ūᵀ, ū = (−u₂, u₁)
-                        c = weight / (y * y * y)
-                        h11 = c * u2 * u2
-                        h22 = c * u1 * u1
-                        h12 = -c * u1 * u2
-                    elif y > zero:          # μλ [(f1/y) I − u uᵀ / (eps² y)]
-                        c = weight / (eps * eps * y)
-                        h11 -= c * u1 * u1
-                        h22 -= c * u2 * u2
-                        h12 = -c * u1 * u2
-                    scratch.hessian[env, body] += tangent_block(h11, h12, h22, w1, w2, w1, w2)
-                    if wp.static(bodies):
-                        if other >= 0:
-                            scratch.hessian[env, other] += tangent_block(h11, h12, h22, v1, v2,
-                                                                         v1, v2)
-                            couple(model, scratch, env, body, other,
-                                   tangent_block(h11, h12, h22, w1, w2, v1, v2))
-        return count
-
-    @wp.func
-    def contact_energy(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
-        """dt² Σ m b over the pairs closer than d̂ (m: ``pair_weight``) [J·s²]; +∞ if a pair
-        is at or beyond the boundary."""
-        energy = zero
-        for k in range(listed(model, scratch, env)):
-            p = listed_pair(model, scratch, env, k)
-            if pair_on(model, p):
-                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
-                if d <= zero:
-                    energy = infinity
-                elif d < model.contact_d_hat:
-                    e, b1, b2 = barrier(model, d)
-                    body, other = pair_bodies(model, p)
-                    weight = pair_weight(model, scratch.q_n[env, body],
-                                         other_state(scratch.q_n, env, body, other), p)
-                    energy += model.dt * model.dt * weight * e
-        return energy
-
-    @wp.func
-    def add_contact(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
-                    hessian: int):
-        """The barrier's gradient into scratch.rhs and, with ``hessian``, its Hessian into the
-        diagonal blocks and a pair of bodies' coupling. Returns the number of active pairs."""
-        active = int(0)
         dt2 = model.dt * model.dt
+        eps = model.contact_eps_velocity * model.dt
+        d_hat = model.contact_d_hat
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            if pair_on(model, p):
+            on = pair_on(model, p)
+            damping = scratch.normal_damping[env, k]
+            force = scratch.friction_normal[env, k]
+            if on or damping > zero or force > zero:
                 d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
-                if d > zero and d < model.contact_d_hat:
-                    active += 1
+                body, other = pair_bodies(model, p)
+                w = jacobian_transpose(rest, n)
+                w_o = -jacobian_transpose(rest_o, n)
+                slope = zero            # along the normal: dE/dd and d²E/dd²
+                curvature = zero
+                acts = damping > zero   # a term of this pair acts at q
+                if on and d > zero and d < d_hat:
+                    count += 1
+                    acts = True
                     e, b1, b2 = barrier(model, d)
-                    body, other = pair_bodies(model, p)
                     weight = dt2 * pair_weight(model, scratch.q_n[env, body],
                                                other_state(scratch.q_n, env, body, other), p)
-                    w = jacobian_transpose(rest, n)
-                    w_o = -jacobian_transpose(rest_o, n)
-                    push(scratch, env, body, other, weight * b1, w, w_o)
-                    if hessian != 0:
-                        stiffen(model, scratch, env, body, other, weight * wp.max(b2, zero), w,
-                                w_o)
-        return active
+                    slope = weight * b1
+                    curvature = weight * wp.max(b2, zero)
+                grad = slope * w        # the gradient over the body and the other
+                grad_o = slope * w_o
+                h11 = zero              # friction's tangent-plane Hessian
+                h12 = zero
+                h22 = zero
+                w1 = vec12()
+                w2 = vec12()
+                v1 = vec12()
+                v2 = vec12()
+                if damping > zero or force > zero:
+                    d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(
+                        model, scratch.q_n, env, p)
+                    mu_force = zero
+                    if force > zero:
+                        mu_force = pair_friction(model, p, body, other) * force
+                    if mu_force > zero:
+                        count += 1
+                        acts = True
+                        u1, u2, w1, w2, v1, v2 = slip_of(model, q, scratch, env, p, body, other,
+                                                         n_n, rest_n, radius_n, rest_on,
+                                                         radius_on)
+                        y = wp.sqrt(u1 * u1 + u2 * u2)
+                        f0, f1_over_y = smooth_friction(y, eps)
+                        grad += mu_force * f1_over_y * (u1 * w1 + u2 * w2)
+                        grad_o += mu_force * f1_over_y * (u1 * v1 + u2 * v2)
+                        h11, h12, h22 = friction_hessian(mu_force, f1_over_y, u1, u2, y, eps)
+                    if damping > zero:
+                        psi, dpsi, ddpsi = damper_of(model, scratch, env, k, p,
+                                                     wp.min(d, d_hat), wp.min(d_n, d_hat))
+                        grad += dpsi * w
+                        grad_o += dpsi * w_o
+                        curvature += ddpsi
+                if acts:
+                    push(scratch, env, body, other, one, grad, grad_o)
+                if acts and hessian != 0:
+                    scratch.hessian[env, body] += (wp.outer(curvature * w, w) +
+                                                   tangent_block(h11, h12, h22, w1, w2, w1, w2))
+                    if wp.static(bodies):
+                        if other >= 0:
+                            scratch.hessian[env, other] += (
+                                wp.outer(curvature * w_o, w_o)
+                                + tangent_block(h11, h12, h22, v1, v2, v1, v2))
+                            couple(model, scratch, env, body, other,
+                                   wp.outer(curvature * w, w_o)
+                                   + tangent_block(h11, h12, h22, w1, w2, v1, v2))
+        return count
 
     @wp.func
     def advance_bound(model: Model, scratch: Scratch, env: int, p: int, body: int,
@@ -1036,10 +1053,8 @@ def build(t) -> SimpleNamespace:
         return nearest, active
 
     return SimpleNamespace(barrier=barrier, cover=cover, gather_near=gather_near,
-                           lag_friction=lag_friction, friction_energy=friction_energy,
-                           add_friction=add_friction, damping_energy=damping_energy,
-                           add_damping=add_damping,
-                           contact_energy=contact_energy, add_contact=add_contact,
+                           lag_friction=lag_friction, pairs_energy=pairs_energy,
+                           add_pairs=add_pairs,
                            step_bound=step_bound, touching=touching, impact=impact,
                            listed=listed, listed_pair=listed_pair, damper=damper,
                            pair_friction=pair_friction, pair_tangent=pair_tangent, slip=slip,

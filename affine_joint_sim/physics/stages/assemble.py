@@ -35,8 +35,7 @@ def build(t) -> SimpleNamespace:
     add_mimics = apart(t, t.add_mimics)      # out of line (physics.stages.out_of_line)
     measure_turns, limit_idle = t.measure_turns, t.limit_idle
     # each out of line (physics.stages.out_of_line)
-    add_contact, add_friction = apart(t, t.add_contact), apart(t, t.add_friction)
-    add_damping = apart(t, t.add_damping)
+    add_pairs = apart(t, t.add_pairs)
 
     @wp.func
     def add_gradients(model: Model, scratch: Scratch, env: int, k: int, g_parent: vec12,
@@ -175,9 +174,7 @@ def build(t) -> SimpleNamespace:
         if wp.static(t.contact):     # compiled in where the scene has contact
             if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed
                 # an active barrier's or friction's curvature changes fast: no last factors
-                untrusted += add_contact(model, q, scratch, env, hessian)
-                untrusted += add_friction(model, q, scratch, env, hessian)
-                add_damping(model, q, scratch, env, hessian)
+                untrusted += add_pairs(model, q, scratch, env, hessian)
         return untrusted
 
     return SimpleNamespace(assemble=assemble)

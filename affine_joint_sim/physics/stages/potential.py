@@ -27,8 +27,7 @@ def build(t) -> SimpleNamespace:
     joint_energy, joint_coordinate, coordinate_terms = (t.joint_energy, t.joint_coordinate,
                                                         t.coordinate_terms)
     # each out of line (physics.stages.out_of_line)
-    contact_energy, friction_energy = apart(t, t.contact_energy), apart(t, t.friction_energy)
-    damping_energy = apart(t, t.damping_energy)
+    pairs_energy = apart(t, t.pairs_energy)
     mimic_energy = apart(t, t.mimic_energy)
     measure_turns, limit_idle = t.measure_turns, t.limit_idle
 
@@ -56,9 +55,7 @@ def build(t) -> SimpleNamespace:
         energy += mimic_energy(model, state, q, env)
         if wp.static(with_contact):     # compiled in where the scene has contact
             if model.has_contact != 0 and scratch.near_count[env] > 0:   # pairs listed
-                energy += contact_energy(model, q, scratch, env)
-                energy += friction_energy(model, q, scratch, env)
-                energy += damping_energy(model, q, scratch, env)
+                energy += pairs_energy(model, q, scratch, env)
         return energy
 
     return SimpleNamespace(incremental_potential=incremental_potential)
