@@ -124,9 +124,10 @@ def without(scene: Scene, name: str) -> Scene:
 
 def _scene(data: dict, scene: Scene, source: str) -> Scene:
     """The edited scene ``data`` validated (SceneError naming ``source``), with ``scene``'s
-    robot description."""
+    robot descriptions."""
     edited = Scene.from_yaml_text(yaml.safe_dump(data, sort_keys=False), source=source)
     edited._robot_description = scene.robot_description
+    edited._robot_descriptions = dict(scene.robot_descriptions)
     return edited
 
 

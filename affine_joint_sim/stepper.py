@@ -557,7 +557,8 @@ class Stepper:
         time and counts go on. What is new starts at the scene's initial state, its BDF2 history
         that of a constant velocity; the lagged contact forces restart (the next step lags its
         own) and the near lists are gathered anew. The edited scene must touch nothing at the
-        current state (SceneError, and nothing changes)."""
+        current state nor at its initial state, where a reset goes (SceneError, and nothing
+        changes)."""
         old, envs = self.scene, self._envs
         bodies = {b.name: i for i, b in enumerate(old.bodies)}
         joints = {j.name: k for k, j in enumerate(old.joints)}
@@ -574,11 +575,12 @@ class Stepper:
         q0 = initial_states(scene)
         starts = np.broadcast_to(q0, (envs, *q0.shape)).copy()
         starts[:, new_b] = carried['q'][:, old_b]
-        with summarised(f'scene {scene.name!r}'):
-            host = build_model(scene, list(starts))       # SceneError: nothing changed yet
+        with summarised(f'scene {scene.name!r}'):       # at q0 too: a reset goes there
+            host = build_model(scene, [*starts, q0])       # SceneError: nothing changed yet
         steps, totals = self._steps, self._problem_totals
         clamped = dict(zip(self.command_joint_names, self._clamp_totals.tolist()))
-        warned = self._warned
+        # what was said stays said, but a clamp's by joint index: said again if need be
+        warned = {w for w in self._warned if not isinstance(w, tuple)}
         self._build(scene, host)
         self.reset()
         state, scratch = self._state, self._scratch

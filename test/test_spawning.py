@@ -67,8 +67,23 @@ def test_a_spawned_body_and_robot_move_as_they_would_from_the_start():
     inertia = 0.0135 + 1.0 * 0.25 ** 2                 # the blade's about its hinge [kg·m²]
     expected = 0.5 * (sim.time - start) ** 2 / (2 * inertia)
     assert sim.angles[-1] == pytest.approx(expected, rel=0.05)
+    sim.spawn('ball', _at(-40.0, 5.0, 1.0), body={'shape': {'sphere': {'radius': 0.1}},
+                                                  'density': 500.0})
     assert sim.scene.robot_descriptions['paddle'] == PADDLE.read_text()
     assert [r.name for r in sim.scene.robots] == ['paddle']
+
+
+def test_a_spawn_where_a_reset_would_put_it_inside_something_is_refused():
+    scene = Scene.from_dict({'dt': 0.01, 'ground': {'height': 0.0}, 'bodies': [
+        {'name': 'box', **CRATE, 'position': [0.0, 0.0, 1.0]}]})
+    sim = Stepper(scene)
+    for _ in range(30):         # it has fallen 0.44 m: its start is free now
+        sim.step()
+    with pytest.raises(SceneError, match="inside body 'box'"):
+        sim.spawn('crate', _at(0.0, 0.0, 1.0), body=CRATE)
+    sim.spawn('crate', _at(1.0, 0.0, 1.0), body=CRATE)
+    sim.reset()
+    assert sim.body_q[1][:3].tolist() == [1.0, 0.0, 1.0]
 
 
 @pytest.mark.parametrize('edit, message', [
@@ -182,3 +197,21 @@ def test_entities_spawned_and_deleted_over_ros_get_topics_and_the_bag_replays_ex
     assert replayed.returncode == 0, replayed.stdout + replayed.stderr
     assert 'largest difference 0.000e+00' in replayed.stdout
     assert 'paddle/hinge' in replayed.stdout and 'refused' not in replayed.stdout
+
+
+def test_replay_finds_each_recorded_topic_s_robot_by_its_namespace():
+    from affine_joint_sim.ros.replay import _Message, _robot_of
+    from affine_joint_sim.ros.robots import RobotFace
+
+    faces = [RobotFace(None, '', None), RobotFace(None, 'left/', None),
+             RobotFace(None, 'gripper/', None), RobotFace(None, 'cell/left/', None)]
+
+    def robot(topic, kind, joint=None):
+        return _robot_of(faces, _Message(kind, topic, 0, b'', '', joint))
+
+    assert robot('/left/joints/gripper/external_torque', 'joint_torque', 'gripper') == 1
+    assert robot('/gripper/joint_commands', 'joint_commands') == 2
+    assert robot('/sim/cell/left/joint_states', 'joint_states') == 3
+    assert robot('/joint_commands', 'joint_commands') == 0
+    assert _robot_of(faces[1:], _Message('joint_commands', '/right/joint_commands', 0, b'',
+                                         '')) is None

@@ -49,7 +49,7 @@ from affine_joint_sim.ros.topics import (ANSWER_KEYS, SENSOR_KEYS,
                                          interfaces_built, load_topics)
 from affine_joint_sim.ros.viz import VizPublisher
 from affine_joint_sim.scene import Scene, SceneError
-from affine_joint_sim.spawning import apply_edit
+from affine_joint_sim.spawning import DELETE_EVENT, SPAWN_EVENT, apply_edit
 from affine_joint_sim.stepper import SimulationWarning, Stepper
 from affine_joint_sim.viz.description import robot_description
 
@@ -485,38 +485,25 @@ class SimNode(Node):
 
     def edit_scene(self, event: dict) -> None:
         """Apply a spawn or delete event (``spawning.apply_edit``) between two steps and follow
-        it: each new robot gets its topics (and its URDF published), a deleted one's go, the
-        lockstep gate waits for the robots there are now, the views and the latched scene and
-        robot_description show the scene now; the event is recorded and the waiting state
-        published again (a new robot's controller answers it). Raises as ``apply_edit`` (a
-        refused edit changes nothing)."""
+        it (``_follow_scene``); the event is recorded, ``~/scene`` and ``/robot_description``
+        republished, the views rebuilt and the waiting state published again (a new robot's
+        controller answers it). Raises as ``apply_edit`` (a refused edit changes nothing), or
+        ValueError if a spawned robot's topics cannot be made (the spawn is undone)."""
         self.recording.record_taken(self.loop.bag_ns)
         apply_edit(self.sim, event)
-        self.scene = self.sim.scene
-        added, removed = self.commands.refresh(self.sim)
-        self.gate.robots = self._answering()
-        kept = {}
-        for topics in self.robot_topics:
-            if topics.face.key in removed:
-                topics.destroy()
-            else:
-                kept[topics.face.key] = topics
-        self.robot_topics = []
-        t_ns, known = self.loop.bag_ns, len(self._bag_topics)
-        for face, buffer in zip(self.commands.faces, self.commands.buffers):
-            topics = kept.get(face.key)
-            if topics is None:
-                topics = RobotTopics(self, face, buffer, face.key in self.gate.robots)
-                for topic in self._bag_topics[known:]:     # recorded from now on
-                    self._recorded.add(topic.name)
-                    self.recording.add_topic(topic)
-                known = len(self._bag_topics)
-                topics.publish_description(t_ns)
-            else:       # its joints' places in the scene may have moved
-                topics.face = face
-                topics.states = JointStateFiller(self.sim, self.topics['joint_states']
-                                                 .msg_class, face.robot)
-            self.robot_topics.append(topics)
+        try:
+            self._follow_scene()
+        except Exception as exc:        # e.g. a topic name ROS refuses: undone
+            if event['event'] != SPAWN_EVENT:
+                raise
+            undo = {'event': DELETE_EVENT, 'entity': event['entity']}
+            apply_edit(self.sim, undo)
+            self._follow_scene()
+            self._event(event)          # both rebuilt the Stepper: replay does so too
+            self._event(undo)
+            raise ValueError(f'entity {event["entity"]!r}: its topics cannot be made '
+                             f'({str(exc).splitlines()[0]}); not spawned') from None
+        t_ns = self.loop.bag_ns
         self._event(event)
         self._publish_and_record(self.scene_pub, self.topics['scene'].msg_class(
             data=self.scene.to_yaml()), t_ns)
@@ -524,6 +511,45 @@ class SimNode(Node):
                                  .msg_class(data=robot_description(self.scene)), t_ns)
         self.viz.rebuild(self.sim, self.config['frame_id'], t_ns)
         self.publish_state(again=True)
+
+    def _follow_scene(self) -> None:
+        """After an edit of the Stepper's scene: each new robot gets its topics (recorded from
+        now on, its URDF published), a deleted one's go, and so do the answer subscriptions
+        of a robot that no longer answers in lockstep (or gets them); the gate waits for the
+        robots there are now."""
+        self.scene = self.sim.scene
+        added, removed = self.commands.refresh(self.sim)
+        self.gate.robots = self._answering()
+        kept = {}
+        for topics in self.robot_topics:
+            if topics.face.key in removed or topics.answers != (topics.face.key in
+                                                                 self.gate.robots):
+                topics.destroy()
+            else:
+                kept[topics.face.key] = topics
+        self.robot_topics = list(kept.values())
+        t_ns, known, made = self.loop.bag_ns, len(self._bag_topics), []
+        try:
+            for face, buffer in zip(self.commands.faces, self.commands.buffers):
+                topics = kept.get(face.key)
+                if topics is None:
+                    topics = RobotTopics(self, face, buffer, face.key in self.gate.robots)
+                    made.append(topics)
+                else:       # its joints' places in the scene may have moved
+                    topics.face = face
+                    topics.states = JointStateFiller(self.sim, self.topics['joint_states']
+                                                     .msg_class, face.robot)
+        except Exception:
+            for topics in made:
+                topics.destroy()
+            raise
+        for topic in self._bag_topics[known:]:      # recorded from now on
+            self._recorded.add(topic.name)
+            self.recording.add_topic(topic)
+        for topics in made:
+            topics.publish_description(t_ns)
+        self.robot_topics = [kept.get(face.key) or next(t for t in made if t.face.key == face.key)
+                             for face in self.commands.faces]
 
     def step(self):
         """Record and apply the queued commands, advance one dt, publish the new state."""

@@ -47,6 +47,7 @@ __all__ = ['ReplayError', 'Divergence', 'read_bag', 'replay', 'publish']
 
 _EPS_NS = 1000          # [ns]: times closer than this are the same step
 _SENSOR_TYPE = {key: kind for kind, key in SENSOR_KEYS.items()}     # topic key -> sensor type
+_TOPICS = load_topics()
 
 
 class ReplayError(Exception):
@@ -301,7 +302,10 @@ class _Resimulation:
         due = [m for m in self.pending if m.t_ns <= now + _EPS_NS]
         self.pending = [m for m in self.pending if m.t_ns > now + _EPS_NS]
         for m in due:
-            robot = self.robot_of(m.topic)
+            robot = self.robot_of(m)
+            if robot is None:
+                self.dropped.append(f'{m.topic}: no robot of the scene has this namespace')
+                continue
             joint = None if m.joint is None else self.joint_of_token[robot].get(m.joint, m.joint)
             self.dropped += self.buffer.buffers[robot].take(m.kind, joint, m.decode())
         self.loop.step()
@@ -312,12 +316,18 @@ class _Resimulation:
         after its time; one the scene refuses (a what-if with another scene) is counted in
         ``dropped``."""
         self._reach(bag_ns - self.epoch_ns)
+        faces = self.buffer.faces
         try:
             apply_edit(self.sim, event)
         except (SceneError, KeyError, ValueError) as exc:
             self.dropped.append(f'{event["event"]} of {event["entity"]!r} at '
                                 f'{(bag_ns - self.epoch_ns) * 1e-9:.6f} s: {exc}')
             return
+        # the node dropped a deleted robot's commands with its buffer (taken before the delete,
+        # recorded at its time): they command nothing here either
+        gone = [f.key for f in faces if f.key == event['entity']]
+        self.pending = [m for m in self.pending if not gone or _robot_of(faces, m) is None
+                        or faces[_robot_of(faces, m)].key not in gone]
         self.buffer.refresh(self.sim)
         self.joint_of_token = [{topic_token(name): name for name in b.joint_names}
                                for b in self.buffer.buffers]
@@ -326,9 +336,9 @@ class _Resimulation:
         self.wrapped = self.states.wrapped
         self.previous = self.current = self._sample()
 
-    def robot_of(self, topic: str) -> int:
-        """The robot (index of ``buffer.faces``) of a recorded topic."""
-        return _robot_of(self.buffer.faces, topic)
+    def robot_of(self, m) -> int | None:
+        """The robot (index of ``buffer.faces``) of a recorded message's topic."""
+        return _robot_of(self.buffer.faces, m)
 
     def place(self, bag_ns: int, event: dict):
         """Apply a recorded placement (SetEntityState) after the step at or after its time; one
@@ -368,13 +378,16 @@ class _Resimulation:
         return now if s is None else self.previous[3][name] + s * (now - self.previous[3][name])
 
 
-def _robot_of(faces, topic: str) -> int:
-    """The robot (index of ``faces``, ``ros.robots.robot_faces``) whose namespace a recorded
-    topic is in: the longest one that occurs in it as ``/<namespace>/``; 0 in a scene of one
-    robot."""
+def _robot_of(faces, m) -> int | None:
+    """The robot (index of ``faces``, ``ros.robots.robot_faces``) of recorded message ``m``:
+    the one whose namespace its topic ends in before the name topics.yaml gives its kind
+    (``/left/`` of ``/sim/left/joints/elbow/external_torque``), the longest that does; the
+    node's own ('') for a topic in no robot's namespace where the scene has one, else None."""
+    name = _TOPICS[m.kind].name(m.joint).lstrip('~/')
+    head = m.topic[:len(m.topic) - len(name)] if m.topic.endswith(name) else m.topic
     found = [(len(f.namespace), k) for k, f in enumerate(faces)
-             if f.namespace and '/' + f.namespace in topic]
-    return max(found)[1] if found else 0
+             if ('/' + head.lstrip('/')).endswith('/' + f.namespace)]
+    return max(found)[1] if found else None
 
 
 def _wrap(angle):
@@ -452,7 +465,11 @@ def _compare_states(m: _Message, run: _Resimulation, divergence: Divergence, bag
     re-simulated joints of its names; a joint spawned since the start joins ``divergence``."""
     msg = m.decode()
     names = run.states.names
-    prefix = run.buffer.buffers[run.robot_of(m.topic)].prefix
+    robot = run.robot_of(m)
+    if robot is None:
+        raise ReplayError(f'{bag.path}: {m.topic}: no robot of the scene {scene.name!r} has '
+                          'this namespace')
+    prefix = run.buffer.buffers[robot].prefix
     scene_names = [prefix + name for name in msg.name]
     if not set(scene_names) <= set(names) or len(set(scene_names)) < len(scene_names):
         raise ReplayError(f'{bag.path}: {m.topic} names {list(msg.name)}, but the scene '
@@ -501,7 +518,7 @@ class _OutBag:
         recorded = {}
         for m in bag.messages:
             if m.kind == 'joint_states':
-                recorded.setdefault(_robot_of(self.faces, m.topic), m.topic)
+                recorded.setdefault(_robot_of(self.faces, m), m.topic)
         self.states_topics = [recorded.get(k, '/' + face.namespace + 'joint_states')
                               for k, face in enumerate(self.faces)]
         bag_topics = [BagTopic(name, msgtype, topics['joint_commands'].qos)
@@ -611,7 +628,7 @@ def publish(bag: RecordedBag, rate: float = 1.0, namespace: str = '',
         # Relative names (as in topics.yaml, a robot's under its namespace), so --namespace
         # decides where they go.
         publishers = {m.topic: node.create_publisher(
-            message_class(m.msgtype), faces[_robot_of(faces, m.topic)].topic(
+            message_class(m.msgtype), faces[_robot_of(faces, m) or 0].topic(
                 topics[m.kind].name(m.joint)), topics[m.kind].qos) for m in commands}
         deadline = time.monotonic() + wait
         while not any(p.get_subscription_count() for p in publishers.values()):

@@ -17,7 +17,7 @@ class RobotTopics:
     controllers answer in lockstep)."""
 
     def __init__(self, node, face, buffer, answers: bool):
-        self.node, self.face = node, face
+        self.node, self.face, self.answers = node, face, answers
         self.state_pub = node._publisher('joint_states', namespace=face.namespace)
         self.states = JointStateFiller(node.sim, node.topics['joint_states'].msg_class,
                                        face.robot)

@@ -317,15 +317,15 @@ class SimulationServices:
             while f'{base}_{number}' in taken:
                 number += 1
             name = f'{base}_{number}'
-        if not re.fullmatch(r'[A-Za-z][A-Za-z0-9_]*', name):
+        if not re.fullmatch(r'[A-Za-z][A-Za-z0-9_]{0,63}', name):
             return self._result(response, response.NAME_INVALID, f'name {name!r}: letters, '
-                                'digits and _, starting with a letter (it prefixes a robot\'s '
-                                'links and topics)')
+                                'digits and _, starting with a letter, at most 64 (it prefixes '
+                                'a robot\'s links and topics)')
         if name in taken:
             return self._result(response, response.NAME_NOT_UNIQUE, f'name {name!r} is taken')
         namespace = request.entity_namespace.strip('/') or None
-        if namespace and not re.fullmatch(r'[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*',
-                                          namespace):
+        if namespace and (len(namespace) > 128 or not re.fullmatch(
+                r'[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*', namespace)):
             return self._result(response, response.NAMESPACE_INVALID,
                                 f'entity_namespace {request.entity_namespace!r}')
         pose = request.initial_pose
