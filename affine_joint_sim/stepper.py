@@ -508,17 +508,22 @@ class Stepper:
 
     def _list_near(self, q: np.ndarray) -> None:
         """Every environment's near list (``scratch.near_pairs``, as a step gathers it) for
-        the one state ``q`` (n_bodies, 12) they all start from: its pairs closer than d̂, so
-        that ``contacts`` reads the start or a reset before any step."""
+        the state ``q`` (n_bodies, 12) they all start from, or each its own (num_envs,
+        n_bodies, 12): its pairs closer than d̂, so that ``contacts`` reads the start, a reset
+        or an edited scene (``_rebuild``) before any step."""
         if not self._host.has_contact:
             return
         model, d_hat = vars(self._host), self._host.contact_d_hat
-        near = [p for p in near_pairs(model, q, d_hat)
-                if pair_gap(model, q, int(p)).distance < d_hat]
-        self._grow_near(2 * len(near))
+        states = np.broadcast_to(q, (self._envs, *np.shape(q)[-2:]))
+        lists = [[p for p in near_pairs(model, state, d_hat)
+                  if pair_gap(model, state, int(p)).distance < d_hat]
+                 for state in (states[:1] if np.ndim(q) == 2 else states)]
+        self._grow_near(2 * max(map(len, lists)))
         pairs, count = self._scratch.near_pairs.numpy(), self._scratch.near_count.numpy()
-        pairs[:, :len(near)] = near
-        count[:] = len(near)
+        for env in range(self._envs):
+            near = lists[min(env, len(lists) - 1)]
+            pairs[env, :len(near)] = near
+            count[env] = len(near)
         self._store(self._scratch.near_pairs, pairs)
         self._store(self._scratch.near_count, count)
 
@@ -597,6 +602,7 @@ class Stepper:
             self._store(state.q_prev, q_prev)
         for name in _ENV_ROWS:
             getattr(state, name).assign(carried[name])
+        self._list_near(state.q.numpy())       # as the carried states have them
         for view, before in zip(self._uploads.views.values(), inputs):
             view[:, new_j] = before[:, old_j]
         for k in self._commanded:

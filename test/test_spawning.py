@@ -215,3 +215,19 @@ def test_replay_finds_each_recorded_topic_s_robot_by_its_namespace():
     assert robot('/joint_commands', 'joint_commands') == 0
     assert _robot_of(faces[1:], _Message('joint_commands', '/right/joint_commands', 0, b'',
                                          '')) is None
+
+
+def test_contacts_read_right_after_an_edit_are_those_of_the_state_it_goes_on_from():
+    scene = Scene.from_dict({'dt': 0.01, 'ground': {'height': 0.0}, 'bodies': [
+        {'name': 'box', **CRATE, 'position': [0.0, 0.0, 0.5]}]})
+    sim = Stepper(scene)
+    for _ in range(60):         # it lands and rests
+        sim.step()
+
+    def touching():
+        return sorted((c['body'], c['other'], round(c['distance'], 12)) for c in sim.contacts)
+
+    resting = touching()
+    assert resting and all(body == 'box' for body, _, _ in resting)
+    sim.spawn('crate', _at(5.0, 0.0, 1.0), body=CRATE)
+    assert touching() == resting
