@@ -11,7 +11,7 @@ from pathlib import Path
 
 import yaml
 
-from affine_joint_sim.rotations import quaternion_from_matrix
+from affine_joint_sim.rotations import quaternion_from_matrix, rpy_from_matrix
 from affine_joint_sim.scene import Scene, SceneError
 
 __all__ = ['with_body', 'with_robot', 'without', 'entity_names', 'spawn_event', 'apply_edit',
@@ -62,7 +62,6 @@ def with_robot(scene: Scene, name: str, urdf: str, pose, namespace: str | None =
     starts with ``<``) named ``name``, its root link at world ``pose`` (4×4), its topics under
     ``namespace`` (default ``name``); ``options``: a ``robots:`` entry's keys
     (``fixed_base``, ``initial_positions``, ...). SceneError naming what is wrong."""
-    from affine_joint_sim.rotations import rpy_from_matrix
     from affine_joint_sim.urdf.robots import robots_scene_data
 
     _taken(scene, name)

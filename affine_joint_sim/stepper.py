@@ -110,6 +110,14 @@ def _has_damping(joint) -> bool:
     return joint.damping > 0.0
 
 
+def _kept(items, before) -> tuple[np.ndarray, np.ndarray]:
+    """(indices in ``items``, indices in ``before``) of the entries both have, by name."""
+    index = {item.name: i for i, item in enumerate(before)}
+    pairs = [(i, index[item.name]) for i, item in enumerate(items) if item.name in index]
+    return (np.array([i for i, _ in pairs], dtype=np.intp),
+            np.array([j for _, j in pairs], dtype=np.intp))
+
+
 def _chunks(envs: int, threads: int | None) -> list[tuple[int, int]]:
     """(first environment, count) of each thread's share of ``envs`` (even shares, the first
     ones one larger); ``threads`` None: one per core the process may use."""
@@ -565,14 +573,8 @@ class Stepper:
         current state nor at its initial state, where a reset goes (SceneError, and nothing
         changes)."""
         old, envs = self.scene, self._envs
-        bodies = {b.name: i for i, b in enumerate(old.bodies)}
-        joints = {j.name: k for k, j in enumerate(old.joints)}
-        kept_b = [(i, bodies[b.name]) for i, b in enumerate(scene.bodies) if b.name in bodies]
-        kept_j = [(k, joints[j.name]) for k, j in enumerate(scene.joints) if j.name in joints]
-        new_b, old_b = (np.array(x, dtype=np.intp).reshape(-1) for x in zip(*kept_b)) \
-            if kept_b else (np.zeros(0, np.intp),) * 2
-        new_j, old_j = (np.array(x, dtype=np.intp).reshape(-1) for x in zip(*kept_j)) \
-            if kept_j else (np.zeros(0, np.intp),) * 2
+        new_b, old_b = _kept(scene.bodies, old.bodies)
+        new_j, old_j = _kept(scene.joints, old.joints)
         state, scratch = self._state, self._scratch
         carried = {name: getattr(group, name).numpy().copy() for group, names in (
             (state, _BODY_ROWS + _JOINT_ROWS + _ENV_ROWS), (scratch, ('q_n',))) for name in names}
