@@ -32,7 +32,11 @@ def test_a_quick_run_writes_every_scene_and_nothing_interpenetrates(tmp_path):
     assert errors['collision'] < 1e-9                   # momentum, kg·m/s
     assert errors['gripper'] < 3e-3                     # the box rose 5 cm with the hand
     assert abs(errors['arm6_gripper grasp']) < 2e-3     # the cube's slip in the arm's hand
-    assert 'Cost growth' not in (tmp_path / 'bodies.md').read_text()    # one pile: no fit
+    text = (tmp_path / 'bodies.md').read_text()
+    assert 'Cost growth' not in text                    # one pile: no fit
+    profile = text.split('### Where a step goes')[1]    # the largest pile's and the grasp's
+    assert f'| pile of {max(bodies.QUICK.piles)} |' in profile
+    assert '| arm6_gripper grasp |' in profile
 
 
 def test_the_growth_exponent_fits_a_power_law():

@@ -37,11 +37,13 @@ def test_a_quick_run_writes_every_scene_and_ratio_and_never_touches_the_ground(t
     text = (tmp_path / 'contact.md').read_text()
     assert '## Speed ratios' in text and '(c) quadruped standing at dt 1e-3' in text
     assert 'never penetrates' in text and (tmp_path / 'contact.png').stat().st_size > 0
+    assert '| quadruped |' in text.split('## Where a step goes')[1]
 
 
 def test_without_mujoco_its_columns_are_empty(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, 'mujoco', None)      # import mujoco raises ImportError
-    settings = contact.Settings(dts=(1e-2,), robot_dts=(), duration=0.1, repeats=1)
+    settings = contact.Settings(dts=(1e-2,), robot_dts=(), duration=0.1, repeats=1,
+                                profile_steps=5, profile_calls=5)
     contact.run(tmp_path, ['cpu'], settings)
     rows = _rows(tmp_path / 'contact.csv')
     assert len(rows) == len(contact.CASES) - 1            # no quadruped at no dt

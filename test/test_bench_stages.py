@@ -5,6 +5,8 @@ figures beyond their being measured (finite, positive)."""
 import csv
 import math
 
+import pytest
+
 from affine_joint_sim.bench import stages
 from affine_joint_sim.physics.evaluate import STAGE_NAMES
 from helpers.cli import cli
@@ -25,3 +27,15 @@ def test_a_quick_run_times_every_stage_of_each_scene(tmp_path):
             if timed:
                 assert 0.0 < float(row[stage]) < math.inf, (name, stage)
     assert '| ramp |' in (tmp_path / 'stages.md').read_text()
+    for name, row in rows.items():
+        # each counted stage's share: its calls per step times its µs per call
+        calls = float(row['hessians per step'])
+        assert calls >= 1.0
+        assert float(row['hessians µs/step']) == pytest.approx(
+            calls * (float(row['assembly']) + float(row['factor and solve'])))
+        assert float(row['energies µs/step']) == pytest.approx(
+            float(row['energies per step']) * float(row['energy']))
+        shares = sum(float(row[f'{stage} µs/step']) for stage in (
+            'hessians', 'gradient_tries', 'energies', 'near_gathers', 'distances', 'rest'))
+        assert shares == pytest.approx(float(row['us_per_step']))
+        assert (float(row['near_gathers per step']) > 0.0) <= (name == 'ramp')

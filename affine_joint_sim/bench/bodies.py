@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from affine_joint_sim.bench import grasp
+from affine_joint_sim.bench import grasp, stages
 from affine_joint_sim.bench.report import Column, markdown_table, publish, times
 from affine_joint_sim.bench.section import add_section
 
@@ -45,10 +45,12 @@ class Settings:
     piles: tuple
     pile_duration: float     # s
     repeats: int
+    profile_steps: int       # steps timed and counted for the stage profile (bench.stages)
+    profile_calls: int       # calls of a stage per timed launch there
 
 
-FULL = Settings((8, 27, 64), 2.0, 3)
-QUICK = Settings((8,), 0.6, 1)
+FULL = Settings((8, 27, 64), 2.0, 3, 50, 200)
+QUICK = Settings((8,), 0.6, 1, 10, 20)
 
 
 def box(name: str, position, size: float = 0.1, mass: float = 1.0, velocity=(0.0, 0.0, 0.0),
@@ -307,6 +309,10 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
     if fit is not None:
         text += (f'\nCost growth over the piles: µs/step ∝ contacts^{fit:.2f} (least squares '
                  f'in log-log over {len(settings.piles)} piles).\n')
+    profiled = stages.profile_rows((f'pile of {max(settings.piles)}', 'arm6_gripper grasp'),
+                                   settings.profile_steps, settings.profile_calls)
+    text += ('\n### Where a step goes (the largest pile and the grasp)\n\n'
+             + stages.profile_text(profiled))
     publish(results, 'bodies', text, rows)
 
 

@@ -31,6 +31,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from affine_joint_sim.bench import stages
 from affine_joint_sim.bench.report import Column, markdown_table, publish, times, write_csv
 from affine_joint_sim.bench.section import add_section
 
@@ -57,10 +58,12 @@ class Settings(NamedTuple):
     robot_dts: tuple      # s, the quadruped (its speed ratio is read at 1e-3)
     duration: float       # s per run (at least 0.55: the stopping box stops after 0.51 s)
     repeats: int          # timed runs (median reported)
+    profile_steps: int    # steps timed and counted for the quadruped's stage profile
+    profile_calls: int    # calls of a stage per timed launch there (bench.stages)
 
 
-FULL = Settings((1e-2, 5e-3, 2e-3, 1e-3), (1e-2, 5e-3, 2e-3, 1e-3), 2.0, 5)
-QUICK = Settings((1e-2,), (1e-3,), 0.6, 1)
+FULL = Settings((1e-2, 5e-3, 2e-3, 1e-3), (1e-2, 5e-3, 2e-3, 1e-3), 2.0, 5, 50, 200)
+QUICK = Settings((1e-2,), (1e-3,), 0.6, 1, 10, 20)
 
 
 class Slab(NamedTuple):
@@ -466,7 +469,9 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
             'penetration).\n\n' + markdown_table(rows, COLUMNS)
             + '\n\n## Speed ratios (µs/step with contact over the same box without it)\n\n'
             + markdown_table(ratio_rows, RATIO_COLUMNS) + '\n\n## Summary\n\n'
-            + _summary(rows, ratio_rows) + '\n')
+            + _summary(rows, ratio_rows) + '\n\n## Where a step goes (the quadruped '
+            'standing)\n\n' + stages.profile_text(stages.profile_rows(
+                ('quadruped',), settings.profile_steps, settings.profile_calls)))
     publish(results, 'contact', text, rows, plots=('contact_ratios.csv', 'contact.png'))
 
 

@@ -2,16 +2,16 @@
 
 Each scene steps to a state of the kind it is run for (the piles falling 1 s into their bin,
 the arm's grasp and the quadruped standing after 0.3 s, a robot without contact after 0.3 s),
-times its next steps (µs/step, Newton iterations and line-search halvings per step), and then
-runs each stage of its step kernel alone at that state, many times in one launch
-(``physics.evaluate.stage_timer``): the incremental potential, the assembly with and without
-the Hessian, the solve with and without factoring, and with contact the step bound, the
-near list's gathering and the smallest distance (µs per call). A step calls the energy once
-at its start and once per line-search trial, the assembly and the factoring solve once per
-fresh Hessian, the gradient and the factored solve for the check on the last factors, the
-step bound once per iteration and per line search, the gathering at least once (at its
-start) and again where a body outruns its margin. float64, one CPU core. Writes stages.md and
-stages.csv.
+times its next steps (µs/step, Newton iterations and line-search halvings per step), counts
+over as many again what each step called (``stats``: Hessians assembled and factored, gradients
+tried on the last factors, energies, near-list gatherings), and then runs each stage of its
+step kernel alone at that state, many times in one launch (``physics.evaluate.stage_timer``):
+the incremental potential, the assembly with and without the Hessian, the solve with and
+without factoring, and with contact the step bound, the near list's gathering and the
+smallest distance (µs per call). A stage's share of a step is its calls per step times its
+µs per call; what no count covers (the prediction, friction's lag, the step bounds, the
+commit and the launch) is the rest. float64, one CPU core. Writes stages.md and stages.csv;
+``bench contact`` and ``bench bodies`` print the same profile of their heaviest scenes.
 """
 
 import time
@@ -21,7 +21,8 @@ from pathlib import Path
 from affine_joint_sim.bench.report import Column, markdown_table, publish
 from affine_joint_sim.bench.section import add_section
 
-__all__ = ['FULL', 'QUICK', 'Settings', 'add_parser', 'profile', 'run']
+__all__ = ['FULL', 'QUICK', 'Settings', 'add_parser', 'profile', 'profile_rows', 'profile_text',
+           'run']
 
 
 @dataclass(frozen=True)
@@ -45,8 +46,9 @@ def _scenes() -> dict:
     def packaged(name):
         return lambda: Scene.load(scene_path(name))
 
-    return {'pile of 27': (lambda: Scene.from_dict(pile_scene(27)), 1.0),
-            'pile of 64': (lambda: Scene.from_dict(pile_scene(64)), 1.0),
+    piles = {f'pile of {n}': (lambda n=n: Scene.from_dict(pile_scene(n)), 1.0)
+             for n in (8, 27, 64)}
+    return {**piles,
             'arm6_gripper grasp': (packaged('grasp'), 0.3),
             'quadruped': (packaged('quadruped'), 0.3),
             'ramp': (packaged('ramp'), 0.3),
@@ -70,13 +72,16 @@ def profile(scene, seconds: float, steps: int, calls: int) -> dict:
     for _ in range(steps):
         sim.step()
     seconds = time.perf_counter() - start
-    iterations, halvings = [], []
+    counted = {name: [] for name in ('newton_iterations', 'line_search_halvings', *_CALLS)}
     for _ in range(steps):          # the next as many steps, read (not timed)
         sim.step()
-        iterations.append(sim.stats['newton_iterations'])
-        halvings.append(sim.stats['line_search_halvings'])
-    row = {'us_per_step': seconds / steps * 1e6, 'newton': float(np.mean(iterations)),
-           'halvings': float(np.mean(halvings)), 'contact': bool(sim._host.has_contact)}
+        stats = sim.stats
+        for name, values in counted.items():
+            values.append(stats.get(name, 0))
+    means = {name: float(np.mean(values)) for name, values in counted.items()}
+    row = {'us_per_step': seconds / steps * 1e6, 'newton': means['newton_iterations'],
+           'halvings': means['line_search_halvings'], 'contact': bool(sim._host.has_contact),
+           **{f'{name} per step': means[name] for name in _CALLS}}
     timer = stage_timer(sim._k)
     out = wp.zeros(1, dtype=sim._k.scalar)
     for which, name in enumerate(STAGE_NAMES):
@@ -92,27 +97,69 @@ def profile(scene, seconds: float, steps: int, calls: int) -> dict:
             wp.synchronize()
             best = min(best, (time.perf_counter() - start) / calls * 1e6)
         row[name] = best
+    return _shares(row)
+
+
+# the statistics counting a stage's calls, and the stages (STAGE_NAMES) each call runs
+_CALLS = {'hessians': ('assembly', 'factor and solve'),
+          'gradient_tries': ('gradient', 'factored solve'),
+          'energies': ('energy',),
+          'near_gathers': ('near list',)}
+
+
+def _shares(row: dict) -> dict:
+    """``row`` with each counted stage's µs per step (its calls per step × µs per call), the
+    distances' once per step with contact (the statistics), and the rest of the step."""
+    accounted = 0.0
+    for name, stages in _CALLS.items():
+        share = sum(row[stage] or 0.0 for stage in stages) * row[f'{name} per step']
+        row[f'{name} µs/step'] = share
+        accounted += share
+    row['distances µs/step'] = row['distances'] or 0.0
+    accounted += row['distances µs/step']
+    row['rest µs/step'] = row['us_per_step'] - accounted
     return row
+
+
+def _columns() -> list:
+    from affine_joint_sim.physics.evaluate import STAGE_NAMES
+
+    columns = [Column('scene', 'scene'), Column('us_per_step', 'µs/step', '{:.0f}'),
+               Column('newton', 'Newton it.', '{:.2f}'),
+               Column('halvings', 'halvings', '{:.2f}')]
+    columns += [Column(f'{name} per step', f'{name} /step', '{:.2f}') for name in _CALLS]
+    columns += [Column(name, f'{name} µs', '{:.1f}') for name in STAGE_NAMES]
+    columns += [Column(f'{name} µs/step', f'{name} µs/step', '{:.1f}')
+                for name in (*_CALLS, 'distances', 'rest')]
+    return columns
+
+
+def profile_text(rows: list[dict]) -> str:
+    """The markdown of profiled ``rows`` (scene and ``profile``'s row), with how to read it."""
+    return ('float64, one CPU core: µs/step, Newton iterations and the calls of each counted '
+            'stage per step (Hessians: assembly with factoring solve; gradient tries: gradient '
+            'with factored solve; energies; near-list gatherings) over the steps, then each '
+            'stage alone at the state reached, µs per call (— : no contact), and each counted '
+            "stage's µs per step (calls × µs per call; the distances once a step with contact, "
+            'for the statistics); rest: what they leave of the step (prediction, friction\'s '
+            'lag, step bounds, commit, launch).\n\n' + markdown_table(rows, _columns()) + '\n')
+
+
+def profile_rows(names, steps: int, calls: int) -> list[dict]:
+    """``profile`` of each scene named (SCENES' names), one row each."""
+    scenes = _scenes()
+    rows = []
+    for name in names:
+        make, seconds = scenes[name]
+        rows.append({'scene': name, **profile(make(), seconds, steps, calls)})
+    return rows
 
 
 def run(results: Path, devices: list[str], settings: Settings) -> None:
     """Profile each scene of ``settings`` on the CPU; write stages.md and stages.csv."""
-    from affine_joint_sim.physics.evaluate import STAGE_NAMES
-
-    scenes = _scenes()
-    rows = []
-    for name in settings.scenes:
-        make, seconds = scenes[name]
-        rows.append({'scene': name, **profile(make(), seconds, settings.steps,
-                                              settings.calls)})
-    columns = [Column('scene', 'scene'), Column('us_per_step', 'µs/step', '{:.0f}'),
-               Column('newton', 'Newton it.', '{:.2f}'),
-               Column('halvings', 'halvings', '{:.2f}')]
-    columns += [Column(name, f'{name} µs', '{:.1f}') for name in STAGE_NAMES]
-    text = ('## Where a step goes (bench stages)\n\nfloat64, one CPU core: µs/step and Newton '
-            'iterations over the steps, then each stage alone at the state reached, µs '
-            'per call (— : no contact).\n\n' + markdown_table(rows, columns) + '\n')
-    publish(results, 'stages', text, rows)
+    rows = profile_rows(settings.scenes, settings.steps, settings.calls)
+    publish(results, 'stages', '## Where a step goes (bench stages)\n\n' + profile_text(rows),
+            rows)
 
 
 def add_parser(sections) -> None:

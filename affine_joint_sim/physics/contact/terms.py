@@ -490,6 +490,7 @@ def build(t) -> SimpleNamespace:
             scratch.body_margin[env, b] = wp.max(model.contact_d_hat, two * reach)
             scratch.q_listed[env, b] = q_n
         old = scratch.near_count[env]
+        scratch.near_gathers[env] += 1
         return relist(scratch, env, old, gather(model, scratch, env, old))
 
     @wp.func

@@ -52,10 +52,11 @@ def _fields(group, rows):
 
 STAT_INT_NAMES = ('newton_iterations', 'line_search_halvings', 'converged',
                   'line_search_failures', 'angle_aliased', 'torque_dropped', 'non_finite',
-                  'step_rejected', 'contacts', 'inner_iterations', 'inner_stalls')
+                  'step_rejected', 'contacts', 'inner_iterations', 'inner_stalls', 'hessians',
+                  'gradient_tries', 'energies', 'near_gathers')
 STAT_FLOAT_NAMES = ('residual', 'joint_gap', 'rotation_strain', 'min_distance')
 # statistics of a scene with contact only (the Stepper leaves them out otherwise)
-CONTACT_STATS = ('contacts', 'min_distance')
+CONTACT_STATS = ('contacts', 'min_distance', 'near_gathers')
 # statistics of a scene whose free bodies may touch each other only (the coupled solve)
 COUPLED_STATS = ('inner_iterations', 'inner_stalls')
 # The kinds of trouble a step reports (Stepper warns once per kind): state.problem_counts holds
@@ -257,6 +258,7 @@ FIELDS = _fields('model', [
      'margins for a pair of bodies; the others stay beyond d̂); the list in [0, near_count), '
      'the room after it for the next one'),
     ('near_count', 'int32', E, '-', 'how many near_pairs'),
+    ('near_gathers', 'int32', E, '-', 'how many times this step gathered the near list'),
     ('near_full', 'int32', E, '-', '0, or how many pairs a near list needed this step where '
      'they outgrew the room: the step is rejected and the Stepper grows the room'),
     ('friction_normal', 'scalar', ('env', 'near'), 'N·s²', 'lagged normal force dt²·λ of each '

@@ -240,12 +240,14 @@ def build(t) -> SimpleNamespace:
         convergence E changes by less than it, and rejecting a step on that noise stalled
         Newton (float32 most).
 
-        Returns (E at the last trial, halvings, 1 if a trial was accepted)."""
+        Returns (E at the last trial, halvings, 1 if a trial was accepted, energies
+        evaluated)."""
         slack = roundoff * wp.abs(energy) + position_rounding(model, q, scratch, env,
                                                               kinetic_scale)
         bound = energy + slack
         accepted = int(0)
         halvings = int(0)
+        trials = int(0)
         trial = energy
         alpha = one
         # trial 0 along turns, then the straight path (one call site of the energy, which a
@@ -267,12 +269,13 @@ def build(t) -> SimpleNamespace:
                 move(model, q, scratch, env, alpha, 0)
             trial = incremental_potential(model, state, control, q, scratch, env,
                                           kinetic_scale, bdf2)
+            trials += 1
             if trial <= bound:
                 accepted = 1
             elif ls > 0 and ls <= HALVINGS:
                 alpha = alpha * half
                 halvings += 1
-        return trial, halvings, accepted
+        return trial, halvings, accepted, trials
 
     @wp.func
     def resting(model: Model, scratch: Scratch, env: int):
@@ -324,7 +327,9 @@ def build(t) -> SimpleNamespace:
                kinetic_scale: scalar, bdf2: int):
         """Minimise E from q̃ without the commands' push (scratch.q_start, see ``predict``).
         Returns (iterations, halvings, line-search failures, converged, residual [m/s],
-        inner iterations and stalls of the coupled solve); the result is in state.q."""
+        inner iterations and stalls of the coupled solve, Hessians assembled and factored,
+        gradients tried on the last factors, energies evaluated); the result is in
+        state.q."""
         q = state.q
         n_free = model.elim_order.shape[0]
         dt = model.dt
@@ -349,6 +354,7 @@ def build(t) -> SimpleNamespace:
         # which a GPU compile inlines at every call site
         energy = zero
         at_n = zero
+        energies = int(0)
         for e in range(2):
             if e == 0 and compare == 0:
                 continue
@@ -359,6 +365,7 @@ def build(t) -> SimpleNamespace:
                 at = scratch.q_n
             energy = incremental_potential(model, state, control, at, scratch, env,
                                            kinetic_scale, bdf2)
+            energies += 1
             if e == 0:
                 at_n = energy
         if compare != 0 and at_n < energy:
@@ -380,6 +387,8 @@ def build(t) -> SimpleNamespace:
         factored = int(0)
         inner = int(0)
         stalls = int(0)
+        hessians = int(0)
+        tries = int(0)
         known = model.has_contact      # whether ``energy`` holds E at the iterate
         unchecked = int(0)      # the last iteration's full step was taken before E judged it
         loaded = friction_loaded(model, scratch, env)
@@ -405,8 +414,10 @@ def build(t) -> SimpleNamespace:
                     inner += used
                     stalls += stalled
                     factored = 1
+                    hessians += 1
                 else:
                     solve_factored(model, scratch, env)
+                    tries += 1
                 residual, small = update_test(model, scratch, env, disp_tol, affine_tol)
                 if small != 0 and (fresh != 0 or untrusted == 0):
                     converged = 1
@@ -446,14 +457,17 @@ def build(t) -> SimpleNamespace:
             if known == 0:      # at the iterate (q: scratch.q_start holds free bodies only)
                 energy = incremental_potential(model, state, control, q, scratch, env,
                                                kinetic_scale, bdf2)
+                energies += 1
                 known = 1
-            trial, used, accepted = line_search(model, state, control, q, scratch, env,
-                                                kinetic_scale, bdf2, energy)
+            trial, used, accepted, trials = line_search(model, state, control, q, scratch,
+                                                        env, kinetic_scale, bdf2, energy)
             halvings += used
+            energies += trials
             failures += 1 - accepted
             energy = trial
             it += 1
-        return iterations, halvings, failures, converged, residual, inner, stalls
+        return (iterations, halvings, failures, converged, residual, inner, stalls, hessians,
+                tries, energies)
 
     return SimpleNamespace(warm_start=warm_start, update_size=update_size,
                            update_test=update_test, extent=extent,

@@ -38,6 +38,8 @@ def build(t) -> SimpleNamespace:
     s_residual, s_gap, s_strain = _F['residual'], _F['joint_gap'], _F['rotation_strain']
     s_distance, s_contacts = _F['min_distance'], _I['contacts']
     s_inner, s_stalls = _I['inner_iterations'], _I['inner_stalls']
+    s_hessians, s_tries, s_energies = _I['hessians'], _I['gradient_tries'], _I['energies']
+    s_gathers = _I['near_gathers']
     touching = t.touching
     p_any, p_not_converged, p_non_finite = _P['any'], _P['not_converged'], _P['non_finite']
     p_aliased, p_dropped, p_failures = (_P['angle_aliased'], _P['torque_dropped'],
@@ -151,7 +153,8 @@ def build(t) -> SimpleNamespace:
     def write_stats(model: Model, state: State, scratch: Scratch, env: int, chunk: int,
                     iterations: int, halvings: int, converged: int, failures: int, aliased: int,
                     dropped: int, finite: int, rejected: int, full: int, residual: scalar,
-                    inner: int, stalls: int, gap: scalar, strain: scalar):
+                    inner: int, stalls: int, hessians: int, tries: int, energies: int,
+                    gap: scalar, strain: scalar):
         """The step's statistics, addressed by the names of physics.host.fields (with contact: the
         smallest distance to a static thing and the pairs closer than d̂ at the end), and the
         environment counted in state.problem_counts under each problem it had (a rejected
@@ -167,6 +170,9 @@ def build(t) -> SimpleNamespace:
         state.stats_int[env, s_rejected] = rejected
         state.stats_int[env, s_inner] = inner
         state.stats_int[env, s_stalls] = stalls
+        state.stats_int[env, s_hessians] = hessians
+        state.stats_int[env, s_tries] = tries
+        state.stats_int[env, s_energies] = energies
         state.stats_float[env, s_residual] = residual
         state.stats_float[env, s_gap] = gap
         state.stats_float[env, s_strain] = strain
@@ -175,6 +181,7 @@ def build(t) -> SimpleNamespace:
                 nearest, contacts = touching(model, state.q, scratch, env, 1)
                 state.stats_float[env, s_distance] = nearest
                 state.stats_int[env, s_contacts] = contacts
+                state.stats_int[env, s_gathers] = scratch.near_gathers[env]
                 state.nearest_seen[env] = wp.min(state.nearest_seen[env], nearest)
                 state.most_contacts[env] = wp.max(state.most_contacts[env], contacts)
         not_converged = int(0)

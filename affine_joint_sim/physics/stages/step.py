@@ -42,6 +42,7 @@ def build(t) -> SimpleNamespace:
         unresolved = int(0)     # −1: the near list outgrew its room (the step is rejected)
         if wp.static(with_contact):     # compiled in where the scene has contact
             if model.has_contact != 0:     # pairs arriving within d̂, or deep in the barrier
+                scratch.near_gathers[env] = 0
                 unresolved = lag_friction(model, state, scratch, env)
                 if bdf2 != 0 and unresolved > 0:
                     bdf2, kinetic_scale, force_scale = integrator_scales(model, state, env, 1)
@@ -49,10 +50,10 @@ def build(t) -> SimpleNamespace:
         dropped = apply_commands(model, state, control, scratch, env, force_scale)
         iterations, halvings, failures, converged = int(0), int(0), int(0), int(0)
         residual = zero
-        inner, stalls = int(0), int(0)
+        inner, stalls, hessians, tries, energies = int(0), int(0), int(0), int(0), int(0)
         if unresolved >= 0:
-            iterations, halvings, failures, converged, residual, inner, stalls = newton(
-                model, state, control, scratch, env, kinetic_scale, bdf2)
+            (iterations, halvings, failures, converged, residual, inner, stalls, hessians, tries,
+             energies) = newton(model, state, control, scratch, env, kinetic_scale, bdf2)
         full = int(0)
         restart = unresolved
         if wp.static(with_contact):
@@ -67,6 +68,7 @@ def build(t) -> SimpleNamespace:
             converged = 0
         write_stats(model, state, scratch, env, chunk, iterations, halvings, converged,
                     failures, aliased, dropped, finite, rejected, full, residual, inner, stalls,
-                    largest_gap(model, state, env), largest_strain(model, state, env))
+                    hessians, tries, energies, largest_gap(model, state, env),
+                    largest_strain(model, state, env))
 
     return SimpleNamespace(step=step)
