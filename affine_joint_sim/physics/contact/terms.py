@@ -282,6 +282,21 @@ def build(t) -> SimpleNamespace:
         return gap
 
     @wp.func
+    def near_surfaces(model: Model, scratch: Scratch, env: int, b: int):
+        """Whether body b's bounding sphere at q_n (about its centre, body_bound times
+        ``spread``) comes within d̂ + its margin of any static surface's: where it does not,
+        none of its edges' or faces' balls does (each lies inside it)."""
+        q = scratch.q_n[env, b]
+        centre = vec3(q[0], q[1], q[2])
+        size = model.body_bound[b] * spread(q)
+        reach_ = model.contact_d_hat + scratch.body_margin[env, b]
+        near = int(0)
+        for g in range(model.surface_radius.shape[0]):
+            if near_surface(model, g, centre, size) < reach_:
+                near = 1
+        return near != 0
+
+    @wp.func
     def gather_static(model: Model, scratch: Scratch, env: int, ends: wp.array(dtype=int),
                       edge: int, centre: vec3, size: scalar, reach: scalar, base: int, at: int):
         """The static edges (``edge`` ≠ 0) or vertices within ``reach`` of a moving edge's or
@@ -314,13 +329,13 @@ def build(t) -> SimpleNamespace:
     def gather_bodies(model: Model, scratch: Scratch, env: int, start: int):
         """The pairs of bodies within d̂ + both bodies' margins at q_n into near_pairs from
         index ``start``: per pair of bodies that may touch, whose bounding spheres are that
-        near, its points against the other's faces both ways and its edges against the
-        other's, each side's primitives only where they reach the other's slab along the
-        line of their centres and its box along its own axes; returns the next free index."""
+        near (their primitives placed then, once a gathering: ``place_primitives``), its
+        points against the other's faces both ways and its edges against the other's, each
+        side's primitives only where they reach the other's slab along the line of their
+        centres and its box along its own axes; returns the next free index."""
         at = start
         for b in range(model.body_reach.shape[0]):
-            if model.body_first_point[b] < model.body_first_point[b + 1]:
-                place_primitives(model, scratch, env, b)
+            scratch.body_placed[env, b] = 0
         for j in range(model.touch_a.shape[0]):
             a = model.touch_a[j]
             b = model.touch_b[j]
@@ -330,6 +345,14 @@ def build(t) -> SimpleNamespace:
             length, n = unit_gap(vec3(qa[0] - qb[0], qa[1] - qb[1], qa[2] - qb[2]))
             apart = length - model.body_bound[a] * spread(qa) - model.body_bound[b] * spread(qb)
             if apart < reach_:
+                for side in range(2):           # each body's primitives placed once, if near
+                    c = int(a)
+                    if side == 1:
+                        c = b
+                    if scratch.body_placed[env, c] == 0 and (
+                            model.body_first_point[c] < model.body_first_point[c + 1]):
+                        place_primitives(model, scratch, env, c)
+                        scratch.body_placed[env, c] = 1
                 low_a, high_a = extent(model, scratch, env, a, n)
                 low_b, high_b = extent(model, scratch, env, b, n)
                 base = static_pairs(model) + model.touch_first[j]
@@ -388,19 +411,25 @@ def build(t) -> SimpleNamespace:
         if wp.static(shapes):
             statics_e = model.static_edge_a.shape[0]
             edges = model.edge_body.shape[0]
-            for e in range(edges):
-                b = model.edge_body[e]
-                middle, size = edge_ball(model, scratch.q_n[env, b], e)
-                at = gather_static(model, scratch, env, model.surface_edge_end, 1, middle,
-                                   size, model.contact_d_hat + scratch.body_margin[env, b],
-                                   first + e * statics_e, at)
+            for b in range(model.body_reach.shape[0]):      # edges are numbered body by body
+                if model.body_first_edge[b] < model.body_first_edge[b + 1] and near_surfaces(
+                        model, scratch, env, b):
+                    for e in range(model.body_first_edge[b], model.body_first_edge[b + 1]):
+                        middle, size = edge_ball(model, scratch.q_n[env, b], e)
+                        at = gather_static(model, scratch, env, model.surface_edge_end, 1,
+                                           middle, size,
+                                           model.contact_d_hat + scratch.body_margin[env, b],
+                                           first + e * statics_e, at)
             statics_v = model.static_vertex.shape[0]
-            for f in range(model.face_body.shape[0]):
-                b = model.face_body[f]
-                centre, size = face_ball(scratch.q_n[env, b], model.face_rest[f])
-                at = gather_static(model, scratch, env, model.surface_vertex_end, 0, centre,
-                                   size, model.contact_d_hat + scratch.body_margin[env, b],
-                                   first + edges * statics_e + f * statics_v, at)
+            for b in range(model.body_reach.shape[0]):      # and so are faces
+                if model.body_first_face[b] < model.body_first_face[b + 1] and near_surfaces(
+                        model, scratch, env, b):
+                    for f in range(model.body_first_face[b], model.body_first_face[b + 1]):
+                        centre, size = face_ball(scratch.q_n[env, b], model.face_rest[f])
+                        at = gather_static(model, scratch, env, model.surface_vertex_end, 0,
+                                           centre, size,
+                                           model.contact_d_hat + scratch.body_margin[env, b],
+                                           first + edges * statics_e + f * statics_v, at)
         if wp.static(bodies):
             at = gather_bodies(model, scratch, env, at)
         return at - start

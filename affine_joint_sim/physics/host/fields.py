@@ -280,6 +280,8 @@ FIELDS = _fields('model', [
     ('slab_faces', 'int32', ('env', 'face'), '-', 'the faces of one body near another\'s slab, '
      'while their pairs are gathered'),
     ('slab_edges', 'int32', ('env', 'edge'), '-', 'likewise its edges'),
+    ('body_placed', 'int32', EB, '-', '1 once a body\'s primitives are placed while the pairs '
+     'of bodies are gathered (only those of bodies near another are)'),
     ('body_low', 'vec3', EB, 'm', 'the least height of a body\'s contact points and edge balls '
      'at q_n along each of its own axes (A\'s columns normalized)'),
     ('body_high', 'vec3', EB, 'm', 'likewise the greatest'),
