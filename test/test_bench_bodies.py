@@ -40,8 +40,10 @@ def test_a_quick_run_writes_every_scene_and_nothing_interpenetrates(tmp_path):
 
 
 def test_the_growth_exponent_fits_a_power_law():
-    rows = [{'scene': 'pile of 8', 'contacts': 10, 'us_per_step': 100.0},
-            {'scene': 'pile of 27', 'contacts': 100, 'us_per_step': 3162.2776601683795},
-            {'scene': 'gripper', 'contacts': 8, 'us_per_step': 1.0}]
+    rows = [{'scene': 'pile of 8', 'contacts': 10, 'us_per_step': 100.0, 'newton': 1.0},
+            {'scene': 'pile of 27', 'contacts': 100, 'us_per_step': 3162.2776601683795,
+             'newton': 10 ** 0.5},
+            {'scene': 'gripper', 'contacts': 8, 'us_per_step': 1.0, 'newton': 2.0}]
     assert bodies.growth(rows) == pytest.approx(1.5)
+    assert bodies.growth(rows, per_iteration=True) == pytest.approx(1.0)
     assert bodies.growth(rows[:1]) is None

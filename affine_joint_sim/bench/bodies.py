@@ -3,7 +3,7 @@
 Scenes, float64 on one CPU core, default contact settings (d̂ 1 mm, κ 1e9, μ 0.5) and
 integrator (BDF2): two 0.1 m boxes colliding in zero gravity (1 kg at 1 m/s against 2 kg at
 −0.5 m/s, 3 cm off centre: the momentum error, against 0), three boxes stacked on the ground
-(the top box's drift over 3 s, against 0), piles of N = 8, 27 and 64 boxes (0.08 m, 0.5 kg)
+(the top box's drift over 3 s, against 0), piles of N = 8, 27, 64 and 125 boxes (0.08 m, 0.5 kg)
 dropped into a bin (ground and four static walls) settling over 2 s, and a two-finger gripper
 lifting a 0.1 kg box 5 cm, squeezed with 1.5 N per finger (μ 0.5: 2 μ F > m g) at dt 1e-3
 (the box's rise, against 0.05 m), and the shipped arm's grasp (``bench.grasp``: the
@@ -14,8 +14,9 @@ and the piles from the same boxes, and the arm's grasp from the same URDF.
 Per scene: µs/step (mean; the piles' over their last second), Newton and inner (conjugate
 gradient) iterations per step, contacts at the end, the nearest distance (ours must stay > 0;
 MuJoCo's deepest contact, negative where it penetrates) and the scene's error. The cost's
-growth: the exponent of µs/step against the piles' contacts (least squares in log-log).
-Writes bodies.md and bodies.csv.
+growth: the exponent of µs/step, and of µs per Newton iteration, against the piles' contacts
+(least squares in log-log). Then where a step of the largest pile and of the grasp goes
+(``bench.stages``). Writes bodies.md and bodies.csv.
 """
 
 import math
@@ -49,7 +50,7 @@ class Settings:
     profile_calls: int       # calls of a stage per timed launch there
 
 
-FULL = Settings((8, 27, 64), 2.0, 3, 50, 200)
+FULL = Settings((8, 27, 64, 125), 2.0, 3, 50, 200)
 QUICK = Settings((8,), 0.6, 1, 10, 20)
 
 
@@ -264,14 +265,14 @@ def _arm_grasp(repeats: int, peer: bool) -> dict:
     return row
 
 
-def growth(rows: list[dict]) -> float | None:
-    """The exponent k of µs/step ∝ contacts^k over the piles (least squares in log-log), None
-    with fewer than two piles."""
+def growth(rows: list[dict], per_iteration: bool = False) -> float | None:
+    """The exponent k of µs/step ∝ contacts^k over the piles (least squares in log-log), or
+    with ``per_iteration`` of µs per Newton iteration; None with fewer than two piles."""
     piles = [r for r in rows if r['scene'].startswith('pile')]
     if len(piles) < 2:
         return None
-    return float(np.polyfit(np.log([r['contacts'] for r in piles]),
-                            np.log([r['us_per_step'] for r in piles]), 1)[0])
+    cost = [r['us_per_step'] / (r['newton'] if per_iteration else 1.0) for r in piles]
+    return float(np.polyfit(np.log([r['contacts'] for r in piles]), np.log(cost), 1)[0])
 
 
 def run(results: Path, devices: list[str], settings: Settings) -> None:
@@ -307,7 +308,8 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
             "deepest contact (MuJoCo's; negative: penetration).\n\n"
             + markdown_table(rows, COLUMNS) + '\n')
     if fit is not None:
-        text += (f'\nCost growth over the piles: µs/step ∝ contacts^{fit:.2f} (least squares '
+        text += (f'\nCost growth over the piles: µs/step ∝ contacts^{fit:.2f}, µs per Newton '
+                 f'iteration ∝ contacts^{growth(rows, per_iteration=True):.2f} (least squares '
                  f'in log-log over {len(settings.piles)} piles).\n')
     profiled = stages.profile_rows((f'pile of {max(settings.piles)}', 'arm6_gripper grasp'),
                                    settings.profile_steps, settings.profile_calls)

@@ -47,7 +47,7 @@ def _scenes() -> dict:
         return lambda: Scene.load(scene_path(name))
 
     piles = {f'pile of {n}': (lambda n=n: Scene.from_dict(pile_scene(n)), 1.0)
-             for n in (8, 27, 64)}
+             for n in (8, 27, 64, 125)}
     return {**piles,
             'arm6_gripper grasp': (packaged('grasp'), 0.3),
             'quadruped': (packaged('quadruped'), 0.3),
