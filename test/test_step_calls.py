@@ -1,9 +1,12 @@
 """What a step called, counted in its statistics: ``hessians`` (assembled and factored),
 ``gradient_tries`` (a gradient solved on the last factors, the convergence check that spares a
 Hessian), ``energies`` and, with contact, ``near_gathers``. A robot's usual step factors once
-and evaluates no energy; where friction is loaded the last factors are never tried (they could
-not end Newton); a contact scene gathers its near list at its first step and again only where
-a body outruns its margin."""
+and evaluates no energy, nor does a step with contact that converges on its first update
+(a resting body's compares E at q_n and at its start); where friction is loaded the last
+factors are never tried (they could not end Newton); a contact scene gathers its near list at
+its first step and again only where a body outruns its margin."""
+
+import numpy as np
 
 from affine_joint_sim import Scene, Stepper
 from affine_joint_sim.resources import scene_path
@@ -28,6 +31,19 @@ def test_a_robot_step_factors_once_and_evaluates_no_energy():
         sim.step()
         assert _calls(sim) == (2, 1, 1, 0)      # the second iteration: the check alone
     assert 'near_gathers' not in sim.stats      # a statistic of scenes with contact
+
+
+def test_a_step_with_contact_that_converges_on_its_first_update_evaluates_no_energy():
+    sim = _resting_box(0.5)
+    pose = np.eye(4)
+    pose[2, 3] = 1.0
+    sim.set_body_state('box', pose)
+    for _ in range(20):     # falling freely 1 m above the ground: the prediction is the step
+        sim.step()
+        assert _calls(sim) == (1, 1, 0, 0)
+    sim = _resting_box(0.5)
+    sim.step()
+    assert _calls(sim)[3] >= 2      # resting: E at q_n and at the prediction, compared
 
 
 def test_loaded_friction_spares_the_check_on_the_last_factors():

@@ -18,8 +18,11 @@ judged it, and the iterates are the search's, bit for bit. With contact
 clear of the static things, energies are +∞ on penetration, Newton starts from q_n where the
 prediction touches (or, with static shapes, is not reached from q_n on a collision-free
 straight path) or where E is lower at q_n (a resting body), converges only on a full step
-that is collision-free, and always searches; with static shapes or bodies that touch each
-other the search follows straight paths only. Runs inside the step kernel: no host sync.
+that is collision-free, and searches unless its first update ends the step (E is computed
+when first needed: at the start only to compare a resting body's start with q_n); with
+static shapes or bodies that touch each other the search follows straight paths only. Where
+friction is loaded every iteration assembles afresh (the last factors could not end Newton).
+Runs inside the step kernel: no host sync.
 """
 
 from types import SimpleNamespace
@@ -350,15 +353,14 @@ def build(t) -> SimpleNamespace:
                         q[env, b] = scratch.q_n[env, b]
                 elif resting(model, scratch, env):
                     compare = 1
-        # the start's E (with a resting body, first E at q_n): one call site of the energy,
-        # which a GPU compile inlines at every call site
+        # the start's E where a resting body compares it with E at q_n, else when first
+        # needed (a step that converges on its first update needs none): one call site of
+        # the energy, which a GPU compile inlines at every call site
         energy = zero
         at_n = zero
         energies = int(0)
         for e in range(2):
-            if e == 0 and compare == 0:
-                continue
-            if e == 1 and model.has_contact == 0:     # without contact: when first needed
+            if compare == 0:
                 break
             at = q
             if e == 0:
@@ -389,7 +391,7 @@ def build(t) -> SimpleNamespace:
         stalls = int(0)
         hessians = int(0)
         tries = int(0)
-        known = model.has_contact      # whether ``energy`` holds E at the iterate
+        known = compare                # whether ``energy`` holds E at the iterate
         unchecked = int(0)      # the last iteration's full step was taken before E judged it
         loaded = friction_loaded(model, scratch, env)
         it = int(0)
