@@ -91,6 +91,30 @@ def build(t) -> SimpleNamespace:
             mu = model.body_friction[body, other]
         return mu
 
+    @wp.func
+    def friction_weight(model: Model, scratch: Scratch, env: int, k: int, p: int, body: int,
+                        other: int):
+        """μ dt²λ [N·s²] of the k-th listed pair p (bodies ``body``, ``other``): its friction's
+        weight this step, 0 without a lagged normal load or without friction."""
+        force = scratch.friction_normal[env, k]
+        weight = zero
+        if force > zero:
+            weight = pair_friction(model, p, body, other) * force
+        return weight
+
+    @wp.func
+    def friction_loaded(model: Model, scratch: Scratch, env: int):
+        """Whether a listed pair has friction this step (``friction_weight``): its term acts at
+        every iterate and ``add_pairs`` counts it against the last factors."""
+        found = int(0)
+        for k in range(listed(model, scratch, env)):
+            if scratch.friction_normal[env, k] > zero:
+                p = listed_pair(model, scratch, env, k)
+                body, other = pair_bodies(model, p)
+                if friction_weight(model, scratch, env, k, p, body, other) > zero:
+                    found = 1
+        return found
+
     @wp.func(inline=True)
     def put_near(scratch: Scratch, env: int, p: int, at: int):
         """near_pairs[at] = p where the room holds it; returns at + 1 either way (a list
@@ -221,6 +245,15 @@ def build(t) -> SimpleNamespace:
             scratch.face_size[env, f] = size
 
     @wp.func
+    def place_once(model: Model, scratch: Scratch, env: int, b: int):
+        """``place_primitives`` of body b unless this gathering placed them already
+        (scratch.body_placed)."""
+        if scratch.body_placed[env, b] == 0 and (
+                model.body_first_point[b] < model.body_first_point[b + 1]):
+            place_primitives(model, scratch, env, b)
+            scratch.body_placed[env, b] = 1
+
+    @wp.func
     def gather_pairs(model: Model, scratch: Scratch, env: int, a: int, b: int, n: vec3,
                      top: scalar, bottom: scalar, reach_: scalar,
                      centres: wp.array2d(dtype=vec3), sizes: wp.array2d(dtype=scalar),
@@ -345,14 +378,8 @@ def build(t) -> SimpleNamespace:
             length, n = unit_gap(vec3(qa[0] - qb[0], qa[1] - qb[1], qa[2] - qb[2]))
             apart = length - model.body_bound[a] * spread(qa) - model.body_bound[b] * spread(qb)
             if apart < reach_:
-                for side in range(2):           # each body's primitives placed once, if near
-                    c = int(a)
-                    if side == 1:
-                        c = b
-                    if scratch.body_placed[env, c] == 0 and (
-                            model.body_first_point[c] < model.body_first_point[c + 1]):
-                        place_primitives(model, scratch, env, c)
-                        scratch.body_placed[env, c] = 1
+                place_once(model, scratch, env, a)
+                place_once(model, scratch, env, b)
                 low_a, high_a = extent(model, scratch, env, a, n)
                 low_b, high_b = extent(model, scratch, env, b, n)
                 base = static_pairs(model) + model.touch_first[j]
@@ -909,7 +936,8 @@ def build(t) -> SimpleNamespace:
                                                          n_n, rest_n, radius_n, rest_on,
                                                          radius_on)
                         f0, f1_over_y = smooth_friction(wp.sqrt(u1 * u1 + u2 * u2), eps)
-                        friction_energy += pair_friction(model, p, body, other) * force * f0
+                        friction_energy += friction_weight(model, scratch, env, k, p, body,
+                                                           other) * f0
                     if damping > zero:
                         psi, dpsi, ddpsi = damper_of(model, scratch, env, k, p,
                                                      wp.min(d, d_hat), wp.min(d_n, d_hat))
@@ -964,9 +992,7 @@ def build(t) -> SimpleNamespace:
                 if damping > zero or force > zero:
                     d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(
                         model, scratch.q_n, env, p)
-                    mu_force = zero
-                    if force > zero:
-                        mu_force = pair_friction(model, p, body, other) * force
+                    mu_force = friction_weight(model, scratch, env, k, p, body, other)
                     if mu_force > zero:
                         count += 1
                         acts = True
@@ -1087,5 +1113,6 @@ def build(t) -> SimpleNamespace:
                            add_pairs=add_pairs,
                            step_bound=step_bound, touching=touching, impact=impact,
                            listed=listed, listed_pair=listed_pair, damper=damper,
-                           pair_friction=pair_friction, pair_tangent=pair_tangent, slip=slip,
+                           pair_friction=pair_friction, friction_loaded=friction_loaded,
+                           pair_tangent=pair_tangent, slip=slip,
                            smooth_friction=smooth_friction)

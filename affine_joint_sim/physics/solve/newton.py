@@ -52,7 +52,7 @@ def build(t) -> SimpleNamespace:
     assemble, solve, solve_factored = apart(t, t.assemble), apart(t, t.solve), t.solve_factored
     incremental_potential = apart(t, t.incremental_potential)
     step_bound, touching, cover = apart(t, t.step_bound), apart(t, t.touching), t.cover
-    pair_bodies, pair_friction = t.pair_bodies, t.pair_friction
+    friction_loaded = t.friction_loaded
     prepare_limit_reach = t.prepare_limit_reach
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
 
@@ -291,23 +291,6 @@ def build(t) -> SimpleNamespace:
         return found != 0
 
     @wp.func
-    def friction_loaded(model: Model, scratch: Scratch, env: int):
-        """Whether a listed pair with friction carries a lagged normal load this step: its
-        friction term then acts at every iterate, ``assemble`` counts it against the last
-        factors, and a new Hessian is needed at every iteration (the gradient alone on the
-        last factors is not tried: it could not end Newton)."""
-        found = int(0)
-        if wp.static(with_contact):
-            if model.has_contact != 0:
-                for k in range(scratch.near_count[env]):
-                    if scratch.friction_normal[env, k] > zero:
-                        p = scratch.near_pairs[env, k]
-                        body, other = pair_bodies(model, p)
-                        if pair_friction(model, p, body, other) > zero:
-                            found = 1
-        return found
-
-    @wp.func
     def reachable(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int):
         """Whether Newton may start from the prediction q: it touches nothing and, with static
         shapes or bodies that touch each other (``passable``), the straight path to it from
@@ -393,7 +376,10 @@ def build(t) -> SimpleNamespace:
         tries = int(0)
         known = compare                # whether ``energy`` holds E at the iterate
         unchecked = int(0)      # the last iteration's full step was taken before E judged it
-        loaded = friction_loaded(model, scratch, env)
+        loaded = int(0)         # friction acts: every iteration assembles afresh
+        if wp.static(with_contact):
+            if model.has_contact != 0:
+                loaded = friction_loaded(model, scratch, env)
         it = int(0)
         while it < model.newton_max_iter:
             iterations = it + 1
