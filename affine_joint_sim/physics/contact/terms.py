@@ -21,7 +21,7 @@ import warp as wp
 from affine_joint_sim.physics.stages.out_of_line import apart
 from affine_joint_sim.physics.contact.kinds import TRIANGLE
 
-__all__ = ['ADVANCE_STEPS', 'ARRIVING', 'IMPACT_ACCELERATION', 'IMPACT_SHARE',
+__all__ = ['ADVANCE_STEPS', 'ARRIVING', 'DRIFT_SLACK', 'IMPACT_ACCELERATION', 'IMPACT_SHARE',
            'RELEASE_STEPS', 'STEP_SLACK', 'STIFF', 'build']
 
 STEP_SLACK = 0.1     # η: a step along dq keeps this fraction of every shrinking gap
@@ -33,6 +33,8 @@ IMPACT_ACCELERATION = 100.0   # m/s²: a pair's normal acceleration within d̂ a
 IMPACT_SHARE = 0.1            # or its Δ² min(d, d̂) in a step above this share of d̂: an impact
                               # (docs/physics.md#impacts)
 RELEASE_STEPS = 48   # safeguarded Newton steps of an opening pair's damper release at most
+DRIFT_SLACK = 1.0 / 16.0    # a pair is skipped as beyond a distance only with this share of d̂
+                            # to spare (``surely_beyond``: the rounding of the distances)
 # Warp passes a struct argument by value: a call the C++ compiler keeps out of line copies the
 # whole Model (and Scratch) each time. The contact stages a step calls whatever is near are
 # inlined; a box far from everything paid 0.6 µs more a step without (docs/physics.md#contact).
@@ -57,6 +59,7 @@ def build(t) -> SimpleNamespace:
     keep = scalar(1.0 - STEP_SLACK)
     arrival, stiff = scalar(1.0 - ARRIVING), scalar(STIFF)
     impact_acceleration, impact_share = scalar(IMPACT_ACCELERATION), scalar(IMPACT_SHARE)
+    drift_slack = scalar(DRIFT_SLACK)
     bodies = t.bodies       # pairs of moving bodies compiled in (kernels.step_kernels)
     shapes = t.shapes       # static shapes, meshes, their edges and vertices compiled in
     triangle = TRIANGLE.code
@@ -114,6 +117,37 @@ def build(t) -> SimpleNamespace:
                 if friction_weight(model, scratch, env, k, p, body, other) > zero:
                     found = 1
         return found
+
+    @wp.func
+    def measure_drift(model: Model, q: wp.array2d(dtype=vec12), also: wp.array2d(dtype=vec12),
+                      scratch: Scratch, env: int, along: int):
+        """How far each free body's contact points, edges and faces are at most from where
+        they were at q_n, at q or at ``also`` (``motion`` of q − q_n, the larger), with
+        ``along`` plus their motion along the path q + α dq (dq: scratch.dq) over 1 − η, into
+        scratch.body_drift."""
+        for k in range(model.elim_order.shape[0]):
+            b = model.elim_order[k]
+            q_n = scratch.q_n[env, b]
+            drift = wp.max(motion(model, b, q[env, b] - q_n), motion(model, b, also[env, b] - q_n))
+            if along != 0:
+                drift += motion(model, b, scratch.dq[env, b]) / keep
+            scratch.body_drift[env, b] = drift
+
+    measure = apart(t, measure_drift)   # out of line: one loop for every pass's call
+
+    @wp.func(inline=True)
+    def surely_beyond(model: Model, scratch: Scratch, env: int, k: int, body: int,
+                      other: int, limit: scalar):
+        """Whether the k-th listed pair (bodies ``body`` and ``other``, −1 for a static side)
+        is farther than ``limit`` [m], with DRIFT_SLACK d̂ to spare, at the state of the last
+        ``measure_drift``: its distance at q_n (scratch.gap_n; 0 where unknown) less how far
+        its bodies' points drifted since (a distance changes no more than its points move).
+        Skipping a pair only where it adds nothing that far changes no bit: most listed
+        pairs are beyond d̂."""
+        moved = scratch.body_drift[env, body]
+        if other >= 0:
+            moved += scratch.body_drift[env, other]
+        return scratch.gap_n[env, k] - moved > limit + drift_slack * model.contact_d_hat
 
     @wp.func(inline=True)
     def put_near(scratch: Scratch, env: int, p: int, at: int):
@@ -470,15 +504,18 @@ def build(t) -> SimpleNamespace:
         damping = zero
         release_ = zero
         before = zero
+        gap = zero
         if source >= 0:
             force = scratch.friction_normal[env, source]
             damping = scratch.normal_damping[env, source]
             release_ = scratch.damping_release[env, source]
             before = scratch.damping_before[env, source]
+            gap = scratch.gap_n[env, source]
         scratch.friction_normal[env, to] = force
         scratch.normal_damping[env, to] = damping
         scratch.damping_release[env, to] = release_
         scratch.damping_before[env, to] = before
+        scratch.gap_n[env, to] = gap
 
     @wp.func
     def relist(scratch: Scratch, env: int, old: int, fresh: int):
@@ -681,10 +718,12 @@ def build(t) -> SimpleNamespace:
         opened: friction sees the load the damper carries, not an impact's spike), the
         contact damping c·dt = 2ζ √(b''(d_n) m_eff) dt into scratch.normal_damping (0 for
         the others) and its ``release`` into scratch.damping_release; an edge pair's
-        mollifier weighs them. Returns how many pairs the step cannot resolve: beyond d̂ at
-        q_n and closer than (1 − ARRIVING) d̂ at the prediction q̃ (an impact arrives), or
-        stiffer than STIFF m_eff/dt² (deep in the barrier); −1 where the list outgrew its
-        room (``relist``: nothing lagged, the step is rejected)."""
+        mollifier weighs them. Every listed pair's distance at q_n goes to scratch.gap_n (the
+        bound that lets a step's passes skip the pairs surely beyond d̂). Returns how many
+        pairs the step cannot resolve: beyond d̂ at q_n and closer than (1 − ARRIVING) d̂ at
+        the prediction q̃ (an impact arrives), or stiffer than STIFF m_eff/dt² (deep in the
+        barrier); −1 where the list outgrew its room (``relist``: nothing lagged, the step is
+        rejected)."""
         # taken again after its list outgrew the room in Newton's search, the step finds this
         # step's damping in its list: the last step's is kept beside it (damping_before)
         again = scratch.near_full[env] != 0
@@ -699,6 +738,8 @@ def build(t) -> SimpleNamespace:
         else:       # not taken: the list holds the last step's damping (taken again: ``again``)
             for k in range(old):
                 scratch.damping_before[env, k] = scratch.normal_damping[env, k]
+                scratch.gap_n[env, k] = zero        # the last step's: unknown at this q_n
+        measure(model, scratch.q_tilde, scratch.q_tilde, scratch, env, 0)
         for k in range(count):
             p = scratch.near_pairs[env, k]
             body, other = pair_bodies(model, p)
@@ -711,11 +752,15 @@ def build(t) -> SimpleNamespace:
                 last_damping = scratch.damping_before[env, k]
             scratch.damping_before[env, k] = last_damping
             d, n, rest, radius, rest_o, radius_o = pair_gap(model, qb, qo, p)
+            scratch.gap_n[env, k] = d
             damping = zero
             if d >= model.contact_d_hat:
-                d_tilde, n_t, rest_t, rest_ot = clamped_gap(model, scratch.q_tilde, env, p)
-                if d_tilde < arrival * model.contact_d_hat:
-                    arriving += 1
+                if not surely_beyond(model, scratch, env, k, body, other,
+                                     arrival * model.contact_d_hat):
+                    d_tilde, n_t, rest_t, rest_ot = clamped_gap(
+                        model, scratch.q_tilde, env, p, body, other)
+                    if d_tilde < arrival * model.contact_d_hat:
+                        arriving += 1
             elif d > zero:
                 e, b1, b2 = barrier(model, d)
                 weight = pair_weight(model, qb, qo, p)
@@ -763,10 +808,12 @@ def build(t) -> SimpleNamespace:
             scratch.contact_block[env, j] += oriented
 
     @wp.func
-    def clamped_gap(model: Model, q: wp.array2d(dtype=vec12), env: int, p: int):
-        """(min(d(q), d̂) [m] of pair p: its distance within the barrier's reach; its normal n
-        and rest points x̄, ȳ at q)."""
-        d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
+    def clamped_gap(model: Model, q: wp.array2d(dtype=vec12), env: int, p: int, body: int,
+                    other: int):
+        """(min(d(q), d̂) [m] of pair p (bodies ``body``, ``other``: ``pair_bodies``): its
+        distance within the barrier's reach; its normal n and rest points x̄, ȳ at q)."""
+        d, n, rest, radius, rest_o, radius_o = pair_gap(model, q[env, body],
+                                                        other_state(q, env, body, other), p)
         return wp.min(d, model.contact_d_hat), n, rest, rest_o
 
     @wp.func
@@ -775,17 +822,26 @@ def build(t) -> SimpleNamespace:
         |Δ² min(d, d̂)| over q_{n−1}, q_n, q above IMPACT_ACCELERATION dt² or IMPACT_SHARE d̂,
         whichever is less (an impact, a stop or a push-out: BDF2's two-step history would
         carry that turn on as a push; a contact resting, rolling or sliding keeps its speed),
-        else 0."""
+        else 0. A pair surely beyond d̂ at q and q_{n−1} (``surely_beyond`` of the larger
+        drift) is at d̂ at all three: skipped; its distance at q_n is the lag's."""
         limit = wp.min(impact_acceleration * model.dt * model.dt,
                        impact_share * model.contact_d_hat)
+        d_hat = model.contact_d_hat
+        measure(model, state.q, state.q_prev, scratch, env, 0)
         found = int(0)
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            d, n, rest, rest_o = clamped_gap(model, state.q, env, p)
-            d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
-            d_p, n_p, rest_p, rest_op = clamped_gap(model, state.q_prev, env, p)
-            if wp.abs(d - two * d_n + d_p) > limit:
-                found = 1
+            body, other = pair_bodies(model, p)
+            if not surely_beyond(model, scratch, env, k, body, other, d_hat):   # else 0
+                d, n, rest, rest_o = clamped_gap(model, state.q, env, p, body, other)
+                d_n = scratch.gap_n[env, k]     # the lag's (0 where unknown)
+                if d_n <= zero:
+                    d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p, body,
+                                                            other)
+                d_p, n_p, rest_p, rest_op = clamped_gap(model, state.q_prev, env, p, body,
+                                                        other)
+                if wp.abs(d - two * wp.min(d_n, d_hat) + d_p) > limit:
+                    found = 1
         return found
 
     @wp.func
@@ -818,8 +874,9 @@ def build(t) -> SimpleNamespace:
         """(Ψ, dΨ/dd, d²Ψ/dd², n, x̄, ȳ) of the k-th listed pair's damper at q
         (``damper_of``), with its normal and rest points at q."""
         p = listed_pair(model, scratch, env, k)
-        d, n, rest, rest_o = clamped_gap(model, q, env, p)
-        d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p)
+        body, other = pair_bodies(model, p)
+        d, n, rest, rest_o = clamped_gap(model, q, env, p, body, other)
+        d_n, n_n, rest_n, rest_on = clamped_gap(model, scratch.q_n, env, p, body, other)
         energy, gradient, curvature = damper_of(model, scratch, env, k, p, d, d_n)
         return energy, gradient, curvature, n, rest, rest_o
 
@@ -906,20 +963,23 @@ def build(t) -> SimpleNamespace:
         than d̂ (m: ``pair_weight``; +∞ if a pair is at or beyond the boundary), friction's
         Σ μ dt²λ f0(|u|) over those with a lagged normal force and the damper's Σ Ψ over
         those with lagged damping (``damper_of``): one pass, each pair's distance taken once
-        at q and, for friction and damping, once at q_n."""
+        at q (none surely beyond d̂ without a lagged term: ``surely_beyond``) and, for
+        friction and damping, once at q_n."""
         barrier_energy = zero
         friction_energy = zero
         damping_energy = zero
         eps = model.contact_eps_velocity * model.dt
         d_hat = model.contact_d_hat
+        measure(model, q, q, scratch, env, 0)
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
+            body, other = pair_bodies(model, p)
             on = pair_on(model, p)
             damping = scratch.normal_damping[env, k]
             force = scratch.friction_normal[env, k]
-            if on or damping > zero or force > zero:
+            if damping > zero or force > zero or (
+                    on and not surely_beyond(model, scratch, env, k, body, other, d_hat)):
                 d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
-                body, other = pair_bodies(model, p)
                 if on:
                     if d <= zero:
                         barrier_energy = infinity
@@ -949,7 +1009,8 @@ def build(t) -> SimpleNamespace:
                   hessian: int):
         """The listed pairs' gradients into scratch.rhs and, with ``hessian``, their Hessians
         into the diagonal blocks and a pair of bodies' coupling, in one pass, each pair's
-        distance taken once at q and, for friction and damping, once at q_n, and each of its
+        distance taken once at q (none surely beyond d̂ without a lagged term:
+        ``surely_beyond``) and, for friction and damping, once at q_n, and each of its
         blocks written once: the barrier's and the damper's along the normal (dΨ/dd w and the
         curvature w wᵀ, the distance's own left out: with the barrier's, never negative) and
         friction's (IPC's PSD closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂]
@@ -959,14 +1020,16 @@ def build(t) -> SimpleNamespace:
         dt2 = model.dt * model.dt
         eps = model.contact_eps_velocity * model.dt
         d_hat = model.contact_d_hat
+        measure(model, q, q, scratch, env, 0)
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
+            body, other = pair_bodies(model, p)
             on = pair_on(model, p)
             damping = scratch.normal_damping[env, k]
             force = scratch.friction_normal[env, k]
-            if on or damping > zero or force > zero:
+            if damping > zero or force > zero or (
+                    on and not surely_beyond(model, scratch, env, k, body, other, d_hat)):
                 d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
-                body, other = pair_bodies(model, p)
                 w = jacobian_transpose(rest, n)
                 w_o = -jacobian_transpose(rest_o, n)
                 slope = zero            # along the normal: dE/dd and d²E/dd²
@@ -1062,13 +1125,18 @@ def build(t) -> SimpleNamespace:
         linear in α and to a convex shape convex, so the tangent at α = 0 is a lower bound
         (exact for half-spaces, conservative for shapes); an edge's or face's distance, or
         that of two bodies, is neither, and advances conservatively (``advance_bound``); the
-        pairs not listed stay beyond d̂ (``cover``)."""
+        pairs not listed stay beyond d̂ (``cover``). A pair whose points move along the
+        whole path by less than η of its distance at q_start (``surely_beyond`` 0 of each
+        body's drift at q_start plus its ``motion`` under dq over 1 − η) keeps α = 1:
+        skipped."""
         cover(model, scratch.q_start, scratch, env, 1)
+        measure(model, scratch.q_start, scratch.q_start, scratch, env, 1)
         alpha = one
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            if pair_on(model, p):
-                body, other = pair_bodies(model, p)
+            body, other = pair_bodies(model, p)
+            if pair_on(model, p) and not surely_beyond(model, scratch, env, k, body, other,
+                                                       zero):
                 if p < point_pairs(model):
                     d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_start, env, p)
                     rate = wp.dot(jacobian_transpose(rest, n), scratch.dq[env, body])
@@ -1082,9 +1150,9 @@ def build(t) -> SimpleNamespace:
     def touching(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int,
                  every_point: int):
         """(smallest distance [m] of a pair that may touch, +∞ without any; pairs closer than
-        d̂) at q, over the listed pairs (the others are beyond d̂), or with ``every_point``
-        over every point pair with a static side and the other listed pairs (the
-        statistics)."""
+        d̂) at q, over the listed pairs (the others are beyond d̂; a listed one surely beyond
+        d̂ and the nearest so far is skipped), or with ``every_point`` over every point pair
+        with a static side and the other listed pairs (the statistics)."""
         nearest = infinity
         active = int(0)
         start = int(0)
@@ -1100,12 +1168,16 @@ def build(t) -> SimpleNamespace:
             while start < listed(model, scratch, env) and listed_pair(
                     model, scratch, env, start) < point_pairs(model):
                 start += 1
+        measure(model, q, q, scratch, env, 0)
         for k in range(start, listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
-            d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
-            nearest = wp.min(nearest, d)
-            if d < model.contact_d_hat:
-                active += 1
+            body, other = pair_bodies(model, p)
+            if not surely_beyond(model, scratch, env, k, body, other,
+                                 wp.max(model.contact_d_hat, nearest)):
+                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
+                nearest = wp.min(nearest, d)
+                if d < model.contact_d_hat:
+                    active += 1
         return nearest, active
 
     return SimpleNamespace(barrier=barrier, cover=cover, gather_near=gather_near,

@@ -270,6 +270,9 @@ FIELDS = _fields('model', [
      'pair\'s damper only cancels its barrier\'s push (where normal_damping > 0)'),
     ('damping_before', 'scalar', ('env', 'near'), 'kg', 'normal_damping of the step before '
      '(what friction\'s lagged load reads, kept for a step taken again with more room)'),
+    ('gap_n', 'scalar', ('env', 'near'), 'm', 'each listed pair\'s distance at q_n, taken by '
+     'friction\'s lag (0: unknown, a pair listed since): less its bodies\' body_drift, a '
+     'lower bound of its distance at an iterate'),
     ('point_world', 'vec3', ('env', 'point'), 'm', 'each contact point at q_n, for the broad '
      'phase of pairs of bodies'),
     ('point_size', 'scalar', ('env', 'point'), 'm', 'its radius, beside it'),
@@ -304,6 +307,9 @@ FIELDS = _fields('model', [
      'move from where they were at q_listed before near_pairs is gathered again (−1: at the '
      'next step)'),
     ('q_listed', 'vec12', EB, 'm, -', 'q_n of the step that gathered near_pairs last'),
+    ('body_drift', 'scalar', EB, 'm', 'how far a free body\'s contact points, edges and faces '
+     'are at most from where they were at q_n, at the state being evaluated (for a step '
+     'bound, plus how far they move along the path over 1 − η)'),
     ('mimic_gradient', 'vec12', ('env', 'mimic_body'), '-', 'per mimic coupling (body rows '
      'of one after another\'s) the gradient g of its x_f − m x_l at the last factorization: '
      'its Hessian K g gᵀ enters every solve by the Sherman–Morrison–Woodbury formula'),
