@@ -136,6 +136,15 @@ def build(t) -> SimpleNamespace:
     measure = apart(t, measure_drift)   # out of line: one loop for every pass's call
 
     @wp.func(inline=True)
+    def pair_drift(scratch: Scratch, env: int, body: int, other: int):
+        """How far a pair's points drifted at most (``measure_drift`` of its body plus its
+        other's, −1 for a static side): its distance changed by no more."""
+        moved = scratch.body_drift[env, body]
+        if other >= 0:
+            moved += scratch.body_drift[env, other]
+        return moved
+
+    @wp.func(inline=True)
     def surely_beyond(model: Model, scratch: Scratch, env: int, k: int, body: int,
                       other: int, limit: scalar):
         """Whether the k-th listed pair (bodies ``body`` and ``other``, −1 for a static side)
@@ -144,10 +153,8 @@ def build(t) -> SimpleNamespace:
         its bodies' points drifted since (a distance changes no more than its points move).
         Skipping a pair only where it adds nothing that far changes no bit: most listed
         pairs are beyond d̂."""
-        moved = scratch.body_drift[env, body]
-        if other >= 0:
-            moved += scratch.body_drift[env, other]
-        return scratch.gap_n[env, k] - moved > limit + drift_slack * model.contact_d_hat
+        return (scratch.gap_n[env, k] - pair_drift(scratch, env, body, other)
+                > limit + drift_slack * model.contact_d_hat)
 
     @wp.func(inline=True)
     def put_near(scratch: Scratch, env: int, p: int, at: int):
@@ -822,8 +829,9 @@ def build(t) -> SimpleNamespace:
         |Δ² min(d, d̂)| over q_{n−1}, q_n, q above IMPACT_ACCELERATION dt² or IMPACT_SHARE d̂,
         whichever is less (an impact, a stop or a push-out: BDF2's two-step history would
         carry that turn on as a push; a contact resting, rolling or sliding keeps its speed),
-        else 0. A pair surely beyond d̂ at q and q_{n−1} (``surely_beyond`` of the larger
-        drift) is at d̂ at all three: skipped; its distance at q_n is the lag's."""
+        else 0. With D the larger drift of q and q_{n−1} (``measure_drift``), |Δ²| ≤ 2D: a
+        pair whose 2D is within half the limit is skipped, and one surely beyond d̂ at both
+        (``surely_beyond``: at d̂ at all three); the distance at q_n is the lag's."""
         limit = wp.min(impact_acceleration * model.dt * model.dt,
                        impact_share * model.contact_d_hat)
         d_hat = model.contact_d_hat
@@ -832,7 +840,8 @@ def build(t) -> SimpleNamespace:
         for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             body, other = pair_bodies(model, p)
-            if not surely_beyond(model, scratch, env, k, body, other, d_hat):   # else 0
+            if two * pair_drift(scratch, env, body, other) > half * limit and not surely_beyond(
+                    model, scratch, env, k, body, other, d_hat):
                 d, n, rest, rest_o = clamped_gap(model, state.q, env, p, body, other)
                 d_n = scratch.gap_n[env, k]     # the lag's (0 where unknown)
                 if d_n <= zero:
@@ -1151,25 +1160,13 @@ def build(t) -> SimpleNamespace:
                  every_point: int):
         """(smallest distance [m] of a pair that may touch, +∞ without any; pairs closer than
         d̂) at q, over the listed pairs (the others are beyond d̂; a listed one surely beyond
-        d̂ and the nearest so far is skipped), or with ``every_point`` over every point pair
-        with a static side and the other listed pairs (the statistics)."""
+        d̂ and the nearest so far is skipped), with ``every_point`` (the statistics) also over
+        every point pair with a static side where no listed pair is within d̂ (else none of
+        those can be nearer: the same minimum, without a pass over every point pair)."""
         nearest = infinity
         active = int(0)
-        start = int(0)
-        if every_point != 0:
-            things = statics(model)
-            for p in range(point_pairs(model)):
-                if model.pair_on[p] != 0:
-                    i = p / things
-                    d, n = distance(model, q[env, model.point_body[i]], i, p - i * things)
-                    nearest = wp.min(nearest, d)
-                    if d < model.contact_d_hat:
-                        active += 1
-            while start < listed(model, scratch, env) and listed_pair(
-                    model, scratch, env, start) < point_pairs(model):
-                start += 1
         measure(model, q, q, scratch, env, 0)
-        for k in range(start, listed(model, scratch, env)):
+        for k in range(listed(model, scratch, env)):
             p = listed_pair(model, scratch, env, k)
             body, other = pair_bodies(model, p)
             if not surely_beyond(model, scratch, env, k, body, other,
@@ -1178,6 +1175,13 @@ def build(t) -> SimpleNamespace:
                 nearest = wp.min(nearest, d)
                 if d < model.contact_d_hat:
                     active += 1
+        if every_point != 0 and not (nearest < model.contact_d_hat):
+            things = statics(model)
+            for p in range(point_pairs(model)):
+                if model.pair_on[p] != 0:
+                    i = p / things
+                    d, n = distance(model, q[env, model.point_body[i]], i, p - i * things)
+                    nearest = wp.min(nearest, d)
         return nearest, active
 
     return SimpleNamespace(barrier=barrier, cover=cover, gather_near=gather_near,
