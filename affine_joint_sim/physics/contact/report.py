@@ -32,8 +32,7 @@ def build(t) -> SimpleNamespace:
     listed, listed_pair, pair_bodies, gap_at = t.listed, t.listed_pair, t.pair_bodies, t.gap_at
     barrier, pair_weight, other_state, damper = (t.barrier, t.pair_weight, t.other_state,
                                                   t.damper)
-    pair_friction, pair_tangent, slip, smooth_friction = (t.pair_friction, t.pair_tangent,
-                                                          t.slip, t.smooth_friction)
+    pair_friction, slip, smooth_friction = t.pair_friction, t.slip, t.smooth_friction
     world_point = t.world_point
 
     @wp.func
@@ -62,13 +61,11 @@ def build(t) -> SimpleNamespace:
         mu = pair_friction(model, p, body, other)
         force = vec3()
         if mu > zero:
-            u1, u2, w1, w2, v1, v2 = slip(model, state.q, scratch, env, p, body, other)
+            u1, u2, t1, t2, rest, rest_o = slip(model, state.q, scratch, env, p, body, other)
             f0, f1_over_y = smooth_friction(wp.sqrt(u1 * u1 + u2 * u2),
                                             model.contact_eps_velocity * model.dt)
-            d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(model, scratch.q_n, env, p)
-            t1 = pair_tangent(model, p, n_n)
             force = (-mu * scratch.friction_normal[env, k] / dt2 * f1_over_y
-                     * (u1 * t1 + u2 * wp.cross(n_n, t1)))
+                     * (u1 * t1 + u2 * t2))
         return force
 
     @wp.func

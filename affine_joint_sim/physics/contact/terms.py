@@ -893,29 +893,24 @@ def build(t) -> SimpleNamespace:
     def slip_of(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int,
                 body: int, other: int, n: vec3, rest_n: vec3, radius: scalar, rest_other: vec3,
                 radius_o: scalar):
-        """(u₁, u₂, w₁, w₂, v₁, v₂): the tangential displacement [m] since the start of the
+        """(u₁, u₂, t₁, t₂, x̄_c, ȳ_c): the tangential displacement [m] since the start of the
         step, along pair p's friction basis (t₁, t₂ = n × t₁) lagged at q_n (its normal n and
-        rest points there: ``gap_at`` at q_n), of the material point that touches
+        rest points there: ``gap_at`` at q_n), of the material point that touches, x̄_c
         (``touch_rest`` at q_n: a sphere's or capsule's surface point, so friction turns it),
-        relative to the other body's where that moves; its gradients J(x̄_c)ᵀ t over the body
-        and −J(ȳ_c)ᵀ t over the other."""
+        relative to the other body's, ȳ_c, where that moves: u's gradients are J(x̄_c)ᵀ t over
+        the body and −J(ȳ_c)ᵀ t over the other."""
         q_n = scratch.q_n[env, body]
         rest = touch_rest(q_n, rest_n, radius, n)
         rest_o = rest_other
         moved = world_point(q[env, body], rest) - world_point(q_n, rest)
         t1 = pair_tangent(model, p, n)
         t2 = wp.cross(n, t1)
-        v1 = vec12()
-        v2 = vec12()
         if wp.static(bodies):
             if other >= 0:
                 q_o = scratch.q_n[env, other]
                 rest_o = touch_rest(q_o, rest_o, radius_o, -n)
                 moved -= world_point(q[env, other], rest_o) - world_point(q_o, rest_o)
-                v1 = -jacobian_transpose(rest_o, t1)
-                v2 = -jacobian_transpose(rest_o, t2)
-        return (wp.dot(t1, moved), wp.dot(t2, moved), jacobian_transpose(rest, t1),
-                jacobian_transpose(rest, t2), v1, v2)
+        return wp.dot(t1, moved), wp.dot(t2, moved), t1, t2, rest, rest_o
 
     @wp.func
     def slip(model: Model, q: wp.array2d(dtype=vec12), scratch: Scratch, env: int, p: int,
@@ -939,12 +934,25 @@ def build(t) -> SimpleNamespace:
             f1_over_y = (two * eps - y) / (eps * eps)
         return f0, f1_over_y
 
-    @wp.func(inline=True)
-    def tangent_block(h11: scalar, h12: scalar, h22: scalar, a1: vec12, a2: vec12, b1: vec12,
-                      b2: vec12):
-        """[a₁ a₂] H [b₁ b₂]ᵀ for the symmetric 2×2 H = (h11 h12; h12 h22): a tangent-plane
-        Hessian mapped into one body's block (a = b) or two bodies' coupling."""
-        return wp.outer(h11 * a1 + h12 * a2, b1) + wp.outer(h12 * a1 + h22 * a2, b2)
+    @wp.func
+    def frame_block(s: mat33, x: vec3, y: vec3):
+        """J(x̄)ᵀ S J(ȳ) [12×12] of a 3×3 world matrix S between the rest points x̄ (rows) and
+        ȳ (columns): q's entries are p and A's rows, so entry ((r, a), (t, b)) is
+        S[r, t] u_a v_b with u = (1, x̄), v = (1, ȳ). A contact's Hessian along its normal and
+        tangents is c n nᵀ and Σ h t tᵀ in the world: one product per entry."""
+        out = mat12()
+        for r in range(3):
+            for c in range(3):
+                st = s[r, c]
+                out[r, c] = st
+                for b in range(3):
+                    out[r, 3 + 3 * c + b] = st * y[b]
+                for a in range(3):
+                    sa = st * x[a]
+                    out[3 + 3 * r + a, c] = sa
+                    for b in range(3):
+                        out[3 + 3 * r + a, 3 + 3 * c + b] = sa * y[b]
+        return out
 
     @wp.func
     def friction_hessian(weight: scalar, f1_over_y: scalar, u1: scalar, u2: scalar, y: scalar,
@@ -1001,9 +1009,9 @@ def build(t) -> SimpleNamespace:
                     d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(
                         model, scratch.q_n, env, p)
                     if force > zero:
-                        u1, u2, w1, w2, v1, v2 = slip_of(model, q, scratch, env, p, body, other,
-                                                         n_n, rest_n, radius_n, rest_on,
-                                                         radius_on)
+                        u1, u2, t1, t2, rest_c, rest_oc = slip_of(
+                            model, q, scratch, env, p, body, other, n_n, rest_n, radius_n,
+                            rest_on, radius_on)
                         f0, f1_over_y = smooth_friction(wp.sqrt(u1 * u1 + u2 * u2), eps)
                         friction_energy += friction_weight(model, scratch, env, k, p, body,
                                                            other) * f0
@@ -1022,8 +1030,9 @@ def build(t) -> SimpleNamespace:
         ``surely_beyond``) and, for friction and damping, once at q_n, and each of its
         blocks written once: the barrier's and the damper's along the normal (dΨ/dd w and the
         curvature w wᵀ, the distance's own left out: with the barrier's, never negative) and
-        friction's (IPC's PSD closed forms in the tangent plane, mapped by W = [J̄ᵀt₁, J̄ᵀt₂]
-        over the pair's bodies). Returns the active pairs plus those with friction (an active
+        friction's (IPC's PSD closed forms in the tangent plane, Σ h t tᵀ in the world),
+        each block the product of those world 3×3 matrices with the rest points
+        (``frame_block``)). Returns the active pairs plus those with friction (an active
         barrier's or friction's curvature changes fast: no last factors)."""
         count = int(0)
         dt2 = model.dt * model.dt
@@ -1054,13 +1063,10 @@ def build(t) -> SimpleNamespace:
                     curvature = weight * wp.max(b2, zero)
                 grad = slope * w        # the gradient over the body and the other
                 grad_o = slope * w_o
-                h11 = zero              # friction's tangent-plane Hessian
-                h12 = zero
-                h22 = zero
-                w1 = vec12()
-                w2 = vec12()
-                v1 = vec12()
-                v2 = vec12()
+                rubs = False            # friction acts: its world Hessian between x̄_c, ȳ_c
+                rub = mat33()
+                rest_c = rest
+                rest_oc = rest_o
                 if damping > zero or force > zero:
                     d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(
                         model, scratch.q_n, env, p)
@@ -1068,14 +1074,18 @@ def build(t) -> SimpleNamespace:
                     if mu_force > zero:
                         count += 1
                         acts = True
-                        u1, u2, w1, w2, v1, v2 = slip_of(model, q, scratch, env, p, body, other,
-                                                         n_n, rest_n, radius_n, rest_on,
-                                                         radius_on)
+                        u1, u2, t1, t2, rest_c, rest_oc = slip_of(
+                            model, q, scratch, env, p, body, other, n_n, rest_n, radius_n,
+                            rest_on, radius_on)
                         y = wp.sqrt(u1 * u1 + u2 * u2)
                         f0, f1_over_y = smooth_friction(y, eps)
-                        grad += mu_force * f1_over_y * (u1 * w1 + u2 * w2)
-                        grad_o += mu_force * f1_over_y * (u1 * v1 + u2 * v2)
+                        pull = mu_force * f1_over_y * (u1 * t1 + u2 * t2)
+                        grad += jacobian_transpose(rest_c, pull)
+                        grad_o -= jacobian_transpose(rest_oc, pull)
                         h11, h12, h22 = friction_hessian(mu_force, f1_over_y, u1, u2, y, eps)
+                        rubs = True
+                        rub = (h11 * wp.outer(t1, t1) + h12 * (wp.outer(t1, t2) + wp.outer(t2, t1))
+                               + h22 * wp.outer(t2, t2))
                     if damping > zero:
                         psi, dpsi, ddpsi = damper_of(model, scratch, env, k, p,
                                                      wp.min(d, d_hat), wp.min(d_n, d_hat))
@@ -1085,16 +1095,20 @@ def build(t) -> SimpleNamespace:
                 if acts:
                     push(scratch, env, body, other, one, grad, grad_o)
                 if acts and hessian != 0:
-                    scratch.hessian[env, body] += (wp.outer(curvature * w, w) +
-                                                   tangent_block(h11, h12, h22, w1, w2, w1, w2))
+                    press = curvature * wp.outer(n, n)      # the normal's world Hessian
+                    own = frame_block(press, rest, rest)
+                    if rubs:
+                        own += frame_block(rub, rest_c, rest_c)
+                    scratch.hessian[env, body] += own
                     if wp.static(bodies):
                         if other >= 0:
-                            scratch.hessian[env, other] += (
-                                wp.outer(curvature * w_o, w_o)
-                                + tangent_block(h11, h12, h22, v1, v2, v1, v2))
-                            couple(model, scratch, env, body, other,
-                                   wp.outer(curvature * w, w_o)
-                                   + tangent_block(h11, h12, h22, w1, w2, v1, v2))
+                            theirs = frame_block(press, rest_o, rest_o)
+                            across = frame_block(-press, rest, rest_o)
+                            if rubs:
+                                theirs += frame_block(rub, rest_oc, rest_oc)
+                                across += frame_block(-rub, rest_c, rest_oc)
+                            scratch.hessian[env, other] += theirs
+                            couple(model, scratch, env, body, other, across)
         return count
 
     @wp.func
