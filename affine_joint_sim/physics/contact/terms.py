@@ -133,7 +133,14 @@ def build(t) -> SimpleNamespace:
                 drift += motion(model, b, scratch.dq[env, b]) / keep
             scratch.body_drift[env, b] = drift
 
-    measure = apart(t, measure_drift)   # out of line: one loop for every pass's call
+    drift_apart = apart(t, measure_drift)   # out of line: one loop for every pass's call
+
+    @wp.func(inline=True)
+    def measure(model: Model, q: wp.array2d(dtype=vec12), also: wp.array2d(dtype=vec12),
+                scratch: Scratch, env: int, along: int):
+        """``measure_drift`` where a pair is listed (nothing reads it otherwise)."""
+        if scratch.near_count[env] > 0:
+            drift_apart(model, q, also, scratch, env, along)
 
     @wp.func(inline=True)
     def pair_drift(scratch: Scratch, env: int, body: int, other: int):
