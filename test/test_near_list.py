@@ -3,7 +3,8 @@ values for the listed pairs only, in a room that grows when a step needs more. A
 outgrew its room is taken again with the bits it would have had with the room from the start
 (outgrown at the step's start and in Newton's search, with contact damping on and off; in a
 batch, only the environments whose list outgrew the room, each its own way); the list
-is ascending and holds every pair closer than d̂ (the host's geometry, pair by pair); a pile of
+is ascending and holds every pair closer than d̂ (the host's geometry, pair by pair); the
+distance kept beside a pair less its bodies' drift bounds its distance from below; a pile of
 64 boxes settles in its first room, whose lagged state stays below 200 KB in float32."""
 
 import numpy as np
@@ -12,6 +13,7 @@ import warp as wp
 
 from affine_joint_sim.bench.bodies import pile_scene
 from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap
+from affine_joint_sim.physics.contact.terms import DRIFT_SLACK
 from affine_joint_sim.physics.host.fields import FIELDS, array_sizes
 from affine_joint_sim.physics.host.model import HostModel, build_model
 from affine_joint_sim.physics.kernels import scalar_of, step_kernels
@@ -75,6 +77,38 @@ def test_the_list_is_ascending_and_holds_every_pair_closer_than_d_hat():
     lagged = scratch.friction_normal.numpy()[0, :len(listed)]
     near = np.isin(listed, close)
     assert np.all(lagged[~near] == 0.0) and np.count_nonzero(lagged[near]) > len(close) // 2
+
+
+def test_a_listed_pair_is_skipped_only_where_it_is_beyond_d_hat():
+    """What lets a pass skip a listed pair (docs/architecture.md, "Passes that skip what is
+    surely far"): its distance at q_n kept beside it (the host's geometry) and each body's
+    drift, which bounds how far its contact points moved since, so that the kept distance
+    less both drifts is a lower bound of the distance at q; landing boxes give both pairs
+    that the bound clears of d̂ and pairs it does not."""
+    qs, rooms, sim = _run(_pile(), steps=30)
+    scratch, host = sim._scratch, sim._host
+    model = vars(host)
+    count = scratch.near_count.numpy()[0]
+    listed = scratch.near_pairs.numpy()[0, :count]
+    kept = scratch.gap_n.numpy()[0, :count]
+    drift = scratch.body_drift.numpy()[0]       # the statistics' pass: at q, from q_n
+    q_n = scratch.q_n.numpy()[0].astype(np.float64)
+    q = sim.body_q.astype(np.float64)
+    assert np.count_nonzero(kept) > count // 2      # 0: listed since the lag (unknown)
+    moved = np.linalg.norm(
+        [q[b, :3] + q[b, 3:].reshape(3, 3) @ x - q_n[b, :3] - q_n[b, 3:].reshape(3, 3) @ x
+         for b, x in zip(host.point_body, host.point_rest)], axis=1)
+    assert np.all(moved <= drift[host.point_body] * (1 + 1e-9)) and moved.max() > 1e-4
+    cleared = 0
+    for p, d_n in zip(listed.tolist(), kept):
+        if d_n == 0.0:
+            continue
+        at_n, at_q = pair_gap(model, q_n, p), pair_gap(model, q, p)
+        assert d_n == pytest.approx(at_n.distance, rel=1e-9, abs=1e-12)
+        bound = d_n - drift[at_q.body] - (0.0 if at_q.other is None else drift[at_q.other])
+        assert at_q.distance >= bound - 1e-12
+        cleared += bound > host.contact_d_hat * (1 + DRIFT_SLACK)
+    assert 0 < cleared < np.count_nonzero(kept)
 
 
 def test_a_pile_of_64_settles_in_its_first_room_below_200_kb_in_float32():
