@@ -87,8 +87,8 @@ def test_copies_follow_call_sites_unrolled_loops_static_branches_and_out_of_line
 
 # The largest function a GPU compile optimises at once, per kind of contact (statements after
 # inlining, the joint types' dispatchers followed; copies of the distance of a pair in any one
-# function compiled): measured 2026-12-05 at 1,656 (none: the assembly), 1,902 (half-spaces),
-# 2,058 (world) and 2,418 (bodies: the step kernel itself), the stages out of line
+# function compiled): measured 2026-12-05 at 1,656 (none: the assembly), 1,845 (half-spaces),
+# 2,001 (world) and 2,267 (bodies: the step kernel itself), the stages out of line
 # (physics.stages.out_of_line); the step kernel with contact was 33,264 statements with 62 copies
 # (64,008 and 83 with pairs of bodies; dispatchers not followed), and 5,525 before contact
 # existed, when NVRTC took 25–60 s.

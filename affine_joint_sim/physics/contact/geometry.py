@@ -407,10 +407,17 @@ def build(t) -> SimpleNamespace:
         return out
 
     @wp.func(inline=True)
+    def gap_between(model: Model, q: wp.array2d(dtype=vec12), env: int, p: int, body: int,
+                    other: int):
+        """``pair_gap`` of pair p, whose bodies are ``body`` and ``other`` (``pair_bodies``),
+        at their states in q."""
+        return gap(model, q[env, body], other_state(q, env, body, other), p)
+
+    @wp.func(inline=True)
     def gap_at(model: Model, q: wp.array2d(dtype=vec12), env: int, p: int):
         """``pair_gap`` of pair p with its bodies at their states in q."""
         body, other = pair_bodies(model, p)
-        return gap(model, q[env, body], other_state(q, env, body, other), p)
+        return gap_between(model, q, env, p, body, other)
 
     @wp.func
     def mollifier(own: vec3, own_world: vec3, other: vec3, other_world: vec3):
@@ -508,6 +515,7 @@ def build(t) -> SimpleNamespace:
                            statics=statics, point_pairs=point_pairs, edge_pairs=edge_pairs,
                            static_pairs=static_pairs, pair_count=pair_count,
                            pair_bodies=pair_bodies, pair_gap=gap, gap_at=gap_at,
+                           gap_between=gap_between,
                            unit_gap=unit_gap,
                            other_state=other_state, pair_weight=pair_weight, motion=motion,
                            reach=reach)

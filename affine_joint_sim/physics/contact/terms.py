@@ -54,7 +54,8 @@ def build(t) -> SimpleNamespace:
     affine = t.affine
     distance, statics, point_pairs = t.contact_distance, t.statics, t.point_pairs
     static_pairs, pair_count, pair_bodies = t.static_pairs, t.pair_count, t.pair_bodies
-    pair_gap, gap_at, other_state = t.pair_gap, t.gap_at, t.other_state
+    pair_gap, gap_at, gap_between, other_state = (t.pair_gap, t.gap_at, t.gap_between,
+                                                   t.other_state)
     pair_weight, motion, reach, unit_gap = t.pair_weight, t.motion, t.reach, t.unit_gap
     keep = scalar(1.0 - STEP_SLACK)
     arrival, stiff = scalar(1.0 - ARRIVING), scalar(STIFF)
@@ -790,8 +791,8 @@ def build(t) -> SimpleNamespace:
                     scratch.damping_release[env, k] = release(
                         model, d, damping, model.dt * model.dt * weight)
                 if last_damping > zero:
-                    d_prev, n_prev, r_prev, rr_prev, ro_prev, rro_prev = gap_at(
-                        model, state.q_prev, env, p)
+                    d_prev, n_prev, r_prev, rr_prev, ro_prev, rro_prev = gap_between(
+                        model, state.q_prev, env, p, body, other)
                     force += wp.clamp(last_damping * (wp.min(d_prev, model.contact_d_hat) - d),
                                       -force, force)
             scratch.friction_normal[env, k] = force
@@ -826,8 +827,7 @@ def build(t) -> SimpleNamespace:
                     other: int):
         """(min(d(q), d̂) [m] of pair p (bodies ``body``, ``other``: ``pair_bodies``): its
         distance within the barrier's reach; its normal n and rest points x̄, ȳ at q)."""
-        d, n, rest, radius, rest_o, radius_o = pair_gap(model, q[env, body],
-                                                        other_state(q, env, body, other), p)
+        d, n, rest, radius, rest_o, radius_o = gap_between(model, q, env, p, body, other)
         return wp.min(d, model.contact_d_hat), n, rest, rest_o
 
     @wp.func
@@ -1003,7 +1003,8 @@ def build(t) -> SimpleNamespace:
             force = scratch.friction_normal[env, k]
             if damping > zero or force > zero or (
                     on and not surely_beyond(model, scratch, env, k, body, other, d_hat)):
-                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
+                d, n, rest, radius, rest_o, radius_o = gap_between(model, q, env, p, body,
+                                                                   other)
                 if on:
                     if d <= zero:
                         barrier_energy = infinity
@@ -1013,8 +1014,8 @@ def build(t) -> SimpleNamespace:
                                              other_state(scratch.q_n, env, body, other), p)
                         barrier_energy += model.dt * model.dt * weight * e
                 if damping > zero or force > zero:
-                    d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(
-                        model, scratch.q_n, env, p)
+                    d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_between(
+                        model, scratch.q_n, env, p, body, other)
                     if force > zero:
                         u1, u2, t1, t2, rest_c, rest_oc = slip_of(
                             model, q, scratch, env, p, body, other, n_n, rest_n, radius_n,
@@ -1054,7 +1055,8 @@ def build(t) -> SimpleNamespace:
             force = scratch.friction_normal[env, k]
             if damping > zero or force > zero or (
                     on and not surely_beyond(model, scratch, env, k, body, other, d_hat)):
-                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
+                d, n, rest, radius, rest_o, radius_o = gap_between(model, q, env, p, body,
+                                                                   other)
                 w = jacobian_transpose(rest, n)
                 w_o = -jacobian_transpose(rest_o, n)
                 slope = zero            # along the normal: dE/dd and d²E/dd²
@@ -1075,8 +1077,8 @@ def build(t) -> SimpleNamespace:
                 rest_c = rest
                 rest_oc = rest_o
                 if damping > zero or force > zero:
-                    d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_at(
-                        model, scratch.q_n, env, p)
+                    d_n, n_n, rest_n, radius_n, rest_on, radius_on = gap_between(
+                        model, scratch.q_n, env, p, body, other)
                     mu_force = friction_weight(model, scratch, env, k, p, body, other)
                     if mu_force > zero:
                         count += 1
@@ -1168,7 +1170,8 @@ def build(t) -> SimpleNamespace:
             if pair_on(model, p) and not surely_beyond(model, scratch, env, k, body, other,
                                                        zero):
                 if p < point_pairs(model):
-                    d, n, rest, radius, rest_o, radius_o = gap_at(model, scratch.q_start, env, p)
+                    d, n, rest, radius, rest_o, radius_o = gap_between(
+                        model, scratch.q_start, env, p, body, other)
                     rate = wp.dot(jacobian_transpose(rest, n), scratch.dq[env, body])
                     if rate < zero:
                         alpha = wp.min(alpha, keep * d / (-rate))
@@ -1192,7 +1195,8 @@ def build(t) -> SimpleNamespace:
             body, other = pair_bodies(model, p)
             if not surely_beyond(model, scratch, env, k, body, other,
                                  wp.max(model.contact_d_hat, nearest)):
-                d, n, rest, radius, rest_o, radius_o = gap_at(model, q, env, p)
+                d, n, rest, radius, rest_o, radius_o = gap_between(model, q, env, p, body,
+                                                                   other)
                 nearest = wp.min(nearest, d)
                 if d < model.contact_d_hat:
                     active += 1
@@ -1211,5 +1215,5 @@ def build(t) -> SimpleNamespace:
                            step_bound=step_bound, touching=touching, impact=impact,
                            listed=listed, listed_pair=listed_pair, damper=damper,
                            pair_friction=pair_friction, friction_loaded=friction_loaded,
-                           pair_tangent=pair_tangent, slip=slip,
+                           slip=slip,
                            smooth_friction=smooth_friction)
