@@ -73,3 +73,30 @@ def test_a_read_with_too_little_room_makes_more_and_reads_again():
     contacts = sim.contacts
     assert len(contacts) > 1
     _assert_same(contacts, _reference(sim))
+
+
+def test_bodies_of_every_shape_report_the_reference_pairs_between_them():
+    """Spheres, cylinders and boxes of two sizes dropped in a heap: pairs of bodies whose
+    blocks of pairs are a single pair (two spheres), a few dozen and thousands, so that
+    finding a pair's bodies (``touch_chunk``, then the touch pairs that start within its
+    chunk) crosses several pairs of bodies within one chunk, and across chunks."""
+    shapes = [{'sphere': {'radius': 0.03}}, {'cylinder': {'radius': 0.02, 'length': 0.06}},
+              {'box': [0.05, 0.05, 0.05]}, {'sphere': {'radius': 0.02}},
+              {'box': [0.03, 0.06, 0.02]}]
+    bodies = [{'name': f'b{i}', 'mass': 0.2, 'shape': shapes[i % len(shapes)],
+               'position': [0.07 * (i % 3) - 0.07, 0.07 * (i // 3 % 2) - 0.035,
+                            0.05 + 0.08 * (i // 6)],
+               'orientation': {'rpy': [0.3 * i, 0.2 * i, 0.1]}, 'collision': 'shape'}
+              for i in range(12)]
+    sim = Stepper(Scene.from_dict({'name': 'heap', 'dt': 0.005, 'ground': {'height': 0.0},
+                                   'contact': {'friction': 0.5}, 'bodies': bodies}))
+    sizes = np.diff(sim._host.touch_first)
+    assert sizes.min() == 1 and sizes.max() > 1000
+    between = 0
+    for k in range(150):
+        sim.step()
+        if k % 10 == 9:
+            contacts = sim.contacts
+            _assert_same(contacts, _reference(sim))
+            between += sum(c['other'] in sim.body_names for c in contacts)
+    assert between > 100

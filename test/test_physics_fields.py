@@ -44,7 +44,7 @@ def test_the_host_model_carries_exactly_the_model_fields_with_their_shapes():
     sizes = dict(SIZES, body=len(scene.bodies), joint=len(scene.joints),
                  free=int(np.sum(host.body_fixed == 0)), point=0, plane=0, shape=0,
                  pair=0, edge=0, face=0, static_edge=0, static_vertex=0, surface=0, static_pair=0,
-                 touch=0, touch_end=1, body_end=len(scene.bodies) + 1,  # no contact
+                 touch=0, touch_end=1, touch_chunk=1, body_end=len(scene.bodies) + 1,  # no contact
                  mimic=0)
     for f in fields_of('model'):
         value = np.asarray(getattr(host, f.name))

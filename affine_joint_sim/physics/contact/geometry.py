@@ -22,6 +22,7 @@ import warp as wp
 from affine_joint_sim.physics.stages.out_of_line import apart
 from affine_joint_sim.physics.contact.kinds import (BOX, CAPSULE, CYLINDER, EDGE_EDGE,
                                                     POINT_FACE, TRIANGLE)
+from affine_joint_sim.physics.contact.pairs import TOUCH_CHUNK
 
 __all__ = ['build']
 
@@ -36,6 +37,7 @@ def build(t) -> SimpleNamespace:
     shapes = t.shapes       # static shapes, meshes, their edges and vertices compiled in
     box, capsule, cylinder, triangle = BOX.code, CAPSULE.code, CYLINDER.code, TRIANGLE.code
     point_face, edge_edge = POINT_FACE.code, EDGE_EDGE.code
+    touch_chunk = TOUCH_CHUNK
 
     @wp.func
     def sign_of(x: scalar):
@@ -244,14 +246,9 @@ def build(t) -> SimpleNamespace:
         """(family code, contact.kinds.BODY_FAMILIES; the first side's point or edge; the
         other side's face or edge) of pair p, one of a pair of bodies."""
         k = p - static_pairs(model)
-        low = int(0)
-        high = model.touch_a.shape[0]
-        while high - low > 1:                   # touch_first[low] ≤ k < touch_first[high]
-            middle = (low + high) / 2
-            if model.touch_first[middle] <= k:
-                low = middle
-            else:
-                high = middle
+        low = model.touch_chunk[k / touch_chunk]    # touch_first[low] ≤ k
+        while model.touch_first[low + 1] <= k:
+            low += 1
         a = model.touch_a[low]
         b = model.touch_b[low]
         k = k - model.touch_first[low]

@@ -20,7 +20,8 @@ from affine_joint_sim import portable_math as pm
 from affine_joint_sim.contact_schema import Collision, Contact
 from affine_joint_sim.physics.contact.kinds import TRIANGLE
 from affine_joint_sim.physics.contact.hull import mesh_hull
-from affine_joint_sim.physics.contact.pairs import near_pairs, pair_gap, touch_first
+from affine_joint_sim.physics.contact.pairs import (near_pairs, pair_gap, touch_chunks,
+                                                    touch_first)
 from affine_joint_sim.physics.contact.primitives import Surface, moving_surface, static_surfaces
 from affine_joint_sim.physics.contact.shapes import shape_separation, static_shapes
 from affine_joint_sim.rotations import rpy_matrix
@@ -191,6 +192,7 @@ def contact_arrays(scene, q0: np.ndarray, starts=None) -> tuple[dict, list[str]]
                   body_friction=np.array([[combined_friction(ma, mb) for mb in body_mu]
                                           for ma in body_mu], dtype=np.float64).reshape(n, n))
     arrays['touch_first'] = touch_first(arrays)
+    arrays['touch_chunk'] = touch_chunks(arrays['touch_first'])
     names += shape_names + [scene.bodies[f].name for f in fixed.edge_owner + fixed.vertex_owner]
     for start in [q0] if starts is None else starts:
         refuse_touching(scene, start, arrays, names)

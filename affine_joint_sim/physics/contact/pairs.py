@@ -15,8 +15,12 @@ from affine_joint_sim import portable_math as pm
 from affine_joint_sim.physics.contact.kinds import BOX, CAPSULE, EDGE_EDGE, POINT_FACE, SPHERE
 from affine_joint_sim.physics.contact.shapes import shape_separation, triangle_weights
 
+# pairs of bodies' pairs per entry of the model field touch_chunk (a box against a box has 336)
+TOUCH_CHUNK = 64
+
 __all__ = ['Gap', 'body_pair', 'near_pairs', 'pair_gap', 'pair_total', 'pair_weight',
-           'pair_distances', 'point_distances', 'segment_params', 'touch_blocks', 'touch_first']
+           'pair_distances', 'point_distances', 'segment_params', 'touch_blocks', 'touch_chunks',
+           'touch_first', 'TOUCH_CHUNK']
 
 
 class Gap:
@@ -103,6 +107,16 @@ def touch_first(model) -> np.ndarray:
     sizes = [sum(len(first) * len(other) for _, first, other in touch_blocks(model, j))
              for j in range(len(model['touch_a']))]
     return np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)]).astype(np.int32)
+
+
+def touch_chunks(first: np.ndarray) -> np.ndarray:
+    """The model field ``touch_chunk`` of ``touch_first`` (``first``): for c = 0 … end //
+    TOUCH_CHUNK, the touch pair j with first[j] ≤ c·TOUCH_CHUNK < first[j + 1] (0 where no
+    pair of bodies has pairs), from which the search for the touch pair of the k-th pair of
+    bodies, k in c's chunk, goes forward over the few touch pairs that start within it."""
+    starts = np.arange(int(first[-1]) // TOUCH_CHUNK + 1, dtype=np.int64) * TOUCH_CHUNK
+    j = np.searchsorted(first, starts, side='right') - 1
+    return np.clip(j, 0, max(len(first) - 2, 0)).astype(np.int32)
 
 
 def body_pair(model, k: int) -> tuple[int, int, int]:

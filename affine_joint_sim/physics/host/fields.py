@@ -10,6 +10,7 @@ collision geometries: static boxes, spheres, capsules, cylinders, triangles), ``
 ``face`` (moving bodies' edges and triangles, each body's consecutive), ``static_edge`` and
 ``static_vertex`` (the static shapes' edges and corners), ``touch`` (pairs of free bodies that
 may touch each other), ``body_end`` and ``touch_end`` (one more than ``body``, ``touch``),
+``touch_chunk`` (one more than the pairs of bodies' pairs over ``TOUCH_CHUNK``),
 ``static_pair`` (point × static thing: the planes, then the shapes; then edge × static edge;
 then face × static vertex), ``pair`` (the static pairs, then those of each pair of bodies that
 may touch: its points against the other's faces both ways, then its edges against the
@@ -194,6 +195,9 @@ FIELDS = _fields('model', [
      'the static pairs: the points of touch_a against the faces of touch_b, those of touch_b '
      'against the faces of touch_a, then the edges of touch_a against those of touch_b, row '
      'by row; then their end'),
+    ('touch_chunk', 'int32', ('touch_chunk',), '-', 'the touch pair holding pair '
+     'TOUCH_CHUNK·c of the pairs of bodies (counted after the static pairs), for each c up '
+     'to their end: where the search for a pair\'s touch pair starts'),
     ('touch_slot', 'int32', ('body', 'body'), '-', 'the touch pair of bodies a and b (either '
      'order), -1 if they never touch'),
     ('body_friction', 'scalar', ('body', 'body'), '-', 'Coulomb μ between two bodies'),
@@ -414,6 +418,7 @@ def array_sizes(host, envs: int, chunks: int = 1, near_room: int | None = None) 
             'plane': len(host.plane_offset), 'shape': len(host.shape_kind),
             'static_pair': len(host.pair_friction), 'pair': host.pair_count,
             'touch': len(host.touch_a), 'touch_end': len(host.touch_a) + 1,
+            'touch_chunk': len(host.touch_chunk),
             'body_end': host.body_count + 1,
             'edge': len(host.edge_body),
             'face': len(host.face_body), 'static_edge': len(host.static_edge_a),
