@@ -31,12 +31,15 @@ __all__ = ['build', 'kernel_options', 'kernel_sources', 'source_salt']
 # No contraction of a·b + c into one FMA by the front end (Warp's fuse_fp=False stops the back
 # end): an FMA only where the code asks for one (fma(), which is exactly rounded everywhere).
 _NO_FUSION = '-ffp-contract=off'
+# the CPU's optimization: clang's last -O wins over Warp's level (2, which CUDA keeps)
+_CPU_LEVEL = '-O3'
 
 
 def kernel_options() -> dict:
     """Warp module options of every kernel module: Warp's CPU compiler flags (the global
     setting: by default ``-march=native`` and its inlining and SLP options) without FMA
-    contraction; optimization level 2, the CPU's default, on CUDA NVRTC's
+    contraction and at clang's ``-O3`` (after the level's ``-O2``: the same IEEE operations,
+    README "Performance"); optimization level 2, on CUDA NVRTC's
     ``--Ofast-compile=min``, under which ptxas keeps a ``__noinline__`` function out of line
     (physics.stages.out_of_line; at level 3 it inlines every one of them again and took 6–8 minutes
     over the step kernel with pairs of bodies); and NVRTC's compile-time trace (a JSON file of
@@ -45,7 +48,7 @@ def kernel_options() -> dict:
     (measured, not explained: docs/architecture.md, "The step kernel")."""
     flags = wp.config.cpu_compiler_flags
     flags = '-march=native' if flags is None else flags
-    return {'cpu_compiler_flags': f'{flags} {_NO_FUSION}'.strip(), 'fuse_fp': False,
+    return {'cpu_compiler_flags': f'{flags} {_NO_FUSION} {_CPU_LEVEL}'.strip(), 'fuse_fp': False,
             'optimization_level': 2, 'compile_time_trace': True}
 
 
