@@ -21,8 +21,7 @@ import warp as wp
 
 from affine_joint_sim.physics.stages.out_of_line import apart
 from affine_joint_sim.physics.contact.kinds import (BOX, CAPSULE, CYLINDER, EDGE_EDGE,
-                                                    POINT_FACE, TRIANGLE)
-from affine_joint_sim.physics.contact.pairs import TOUCH_CHUNK
+                                                    POINT_FACE, TOUCH_CHUNK, TRIANGLE)
 
 __all__ = ['build']
 

@@ -19,7 +19,7 @@ vertex (docs/architecture.md#adding-a-contact-primitive).
 from dataclasses import dataclass
 
 __all__ = ['ShapeKind', 'SHAPE_KINDS', 'SHAPE_CODES', 'BOX', 'SPHERE', 'CAPSULE', 'CYLINDER',
-           'TRIANGLE', 'BodyFamily', 'BODY_FAMILIES', 'POINT_FACE', 'EDGE_EDGE']
+           'TRIANGLE', 'BodyFamily', 'BODY_FAMILIES', 'POINT_FACE', 'EDGE_EDGE', 'TOUCH_CHUNK']
 
 
 @dataclass(frozen=True)
@@ -56,3 +56,7 @@ POINT_FACE = BodyFamily('point–face', 0, 'point', 'face')
 EDGE_EDGE = BodyFamily('edge–edge', 1, 'edge', 'edge')
 
 BODY_FAMILIES = (POINT_FACE, EDGE_EDGE)                     # in code order
+
+# pairs of bodies' pairs per entry of the model field touch_chunk, which finds a pair's pair of
+# bodies (a box against a box numbers 336 pairs, a sphere against a sphere one)
+TOUCH_CHUNK = 64

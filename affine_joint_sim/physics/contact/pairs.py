@@ -12,15 +12,13 @@ import math
 import numpy as np
 
 from affine_joint_sim import portable_math as pm
-from affine_joint_sim.physics.contact.kinds import BOX, CAPSULE, EDGE_EDGE, POINT_FACE, SPHERE
+from affine_joint_sim.physics.contact.kinds import (BOX, CAPSULE, EDGE_EDGE, POINT_FACE, SPHERE,
+                                                    TOUCH_CHUNK)
 from affine_joint_sim.physics.contact.shapes import shape_separation, triangle_weights
-
-# pairs of bodies' pairs per entry of the model field touch_chunk (a box against a box has 336)
-TOUCH_CHUNK = 64
 
 __all__ = ['Gap', 'body_pair', 'near_pairs', 'pair_gap', 'pair_total', 'pair_weight',
            'pair_distances', 'point_distances', 'segment_params', 'touch_blocks', 'touch_chunks',
-           'touch_first', 'TOUCH_CHUNK']
+           'touch_first']
 
 
 class Gap:
