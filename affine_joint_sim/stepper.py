@@ -63,7 +63,7 @@ _NEAR_FULL = PROBLEM_COLUMNS.index('near_full')
 # the Scratch arrays sized by the near lists' room (physics.host.fields ``near``): grown together
 _NEAR_ARRAYS = tuple(f.name for f in fields_of('scratch') if 'near' in f.shape)
 # What a rebuilt Stepper (spawn, delete) carries over, by the rows of State they are.
-_BODY_ROWS = ('q', 'v', 'q_prev', 'v_prev')
+_BODY_ROWS = ('q', 'v', 'q_prev', 'v_prev', 'correction')
 _JOINT_ROWS = ('joint_coordinate', 'joint_coordinate_prev', 'joint_position', 'joint_velocity',
                'joint_effort')
 _ENV_ROWS = ('history_ready', 'nearest_seen', 'most_contacts')
@@ -565,10 +565,11 @@ class Stepper:
 
     def _rebuild(self, scene) -> None:
         """Go on with ``scene``, an edit of this one (bodies and joints added at the end or
-        removed): every body and joint it keeps, matched by name, keeps its state (q, q̇ and
-        BDF2's history; coordinates, velocities, efforts) and its commands; the step count,
-        time and counts go on. What is new starts at the scene's initial state, its BDF2 history
-        that of a constant velocity; the lagged contact forces restart (the next step lags its
+        removed): every body and joint it keeps, matched by name, keeps its state (q, q̇,
+        BDF2's history and the correction Newton starts from; coordinates, velocities,
+        efforts) and its commands; the step count, time and counts go on. What is new starts
+        at the scene's initial state, its BDF2 history that of a constant velocity, its
+        correction none; the lagged contact forces restart (the next step lags its
         own) and the near lists are gathered anew. The edited scene must touch nothing at the
         current state nor at its initial state, where a reset goes (SceneError, and nothing
         changes)."""

@@ -1,10 +1,11 @@
 """What a step called, counted in its statistics: ``hessians`` (assembled and factored),
 ``gradient_tries`` (a gradient solved on the last factors, the convergence check that spares a
 Hessian), ``energies`` and, with contact, ``near_gathers``. A robot's usual step factors once
-and evaluates no energy, nor does a step with contact that converges on its first update
-(a resting body's compares E at q_n and at its start); where friction is loaded the last
-factors are never tried (they could not end Newton); a contact scene gathers its near list at
-its first step and again only where a body outruns its margin."""
+and evaluates no energy (from the last step's correction its first update ends it), nor does
+a step with contact that converges on its first update (a resting body's compares E at q_n
+and at its start); where friction is loaded the last factors are never tried (they could not
+end Newton); a contact scene gathers its near list at its first step and again only where a
+body outruns its margin."""
 
 import numpy as np
 
@@ -27,9 +28,14 @@ def _resting_box(mu: float) -> Stepper:
 
 def test_a_robot_step_factors_once_and_evaluates_no_energy():
     sim = Stepper(Scene.load(scene_path('pendulum')))
-    for _ in range(50):
+    sim.step()      # from the prediction: the second iteration is the check alone
+    assert _calls(sim) == (2, 1, 1, 0)
+    calls = []
+    for _ in range(50):     # from the last step's correction: its first update ends most
         sim.step()
-        assert _calls(sim) == (2, 1, 1, 0)      # the second iteration: the check alone
+        calls.append(_calls(sim))
+    assert set(calls) <= {(1, 1, 0, 0), (2, 1, 1, 0)}
+    assert calls.count((1, 1, 0, 0)) >= 45
     assert 'near_gathers' not in sim.stats      # a statistic of scenes with contact
 
 

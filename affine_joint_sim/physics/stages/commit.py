@@ -2,16 +2,17 @@
 
 A step whose state is non-finite, or in which a joint turns more than 0.9π (its multi-turn
 angle would alias), is rejected: that environment keeps its start-of-step state and flags the
-step. Otherwise velocities follow the integrator, the BDF2 history shifts and the joint
-coordinates advance by their unwrapped increments (docs/physics.md#end-of-step,
-docs/physics.md#joint-coordinate).
+step. Otherwise velocities follow the integrator, the BDF2 history shifts, the correction of
+the step's prediction is kept for the next step's Newton start and the joint coordinates
+advance by their unwrapped increments (docs/physics.md#end-of-step,
+docs/physics.md#newton-start, docs/physics.md#joint-coordinate).
 """
 
 from types import SimpleNamespace
 
 import warp as wp
 
-from affine_joint_sim.physics.host.codes import BDF2, CONTINUOUS
+from affine_joint_sim.physics.host.codes import CONTINUOUS
 from affine_joint_sim.physics.host.fields import PROBLEM_COLUMNS, STAT_FLOAT_NAMES, STAT_INT_NAMES
 
 __all__ = ['build']
@@ -24,7 +25,7 @@ _P = {name: i for i, name in enumerate(PROBLEM_COLUMNS)}
 def build(t) -> SimpleNamespace:
     """Warp functions of the commit stage for the types namespace ``t``."""
     with_contact = t.contact     # contact code compiled in (kernels.step_kernels)
-    scalar, zero, two, three, four = t.scalar, t.zero, t.two, t.three, t.four
+    scalar, vec12, zero, two, three, four = t.scalar, t.vec12, t.zero, t.two, t.three, t.four
     affine, ortho_energy = t.affine, t.ortho_energy
     pi, two_pi = t.pi, t.two_pi
     Model, State, Scratch = t.structs.Model, t.structs.State, t.structs.Scratch
@@ -94,16 +95,22 @@ def build(t) -> SimpleNamespace:
         return aliased
 
     @wp.func
-    def commit(model: Model, state: State, scratch: Scratch, env: int):
-        """Accept the step: velocities and history, joint coordinates (a wrapped
-        angle is reported for revolute joints in WRAPPED mode, the coordinate otherwise)."""
+    def commit(model: Model, state: State, scratch: Scratch, env: int, force_scale: scalar,
+               converged: int):
+        """Accept the step: velocities, history and the correction of its prediction (over
+        ``force_scale``, the step's [s²]; none where Newton did not converge, whose last
+        iterate is no solution to carry on), joint coordinates (a wrapped angle is reported
+        for revolute joints in WRAPPED mode, the coordinate otherwise)."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             state.q_prev[env, b] = scratch.q_n[env, b]
             state.v_prev[env, b] = state.v[env, b]
             state.v[env, b] = scratch.velocity[env, b]
-        if model.integrator == BDF2:
-            state.history_ready[env] = 1
+            correction = vec12()
+            if converged != 0:
+                correction = (state.q[env, b] - scratch.q_predicted[env, b]) / force_scale
+            state.correction[env, b] = correction
+        state.history_ready[env] = 1
         for k in range(model.joint_parent.shape[0]):
             previous = state.joint_coordinate[env, k]
             raw = scratch.joint_raw[env, k]
@@ -117,9 +124,11 @@ def build(t) -> SimpleNamespace:
                 state.joint_position[env, k] = wrap_angle(raw)
 
     @wp.func
-    def finish(model: Model, state: State, scratch: Scratch, env: int, bdf2: int, full: int):
-        """Commit or reject the step (``full`` ≠ 0: its near list outgrew its room). Returns
-        (finite, aliased, rejected)."""
+    def finish(model: Model, state: State, scratch: Scratch, env: int, bdf2: int,
+               force_scale: scalar, converged: int, full: int):
+        """Commit or reject the step (``full`` ≠ 0: its near list outgrew its room; ``bdf2``
+        and ``force_scale`` [s²] its integrator's, ``converged`` Newton's). Returns (finite,
+        aliased, rejected)."""
         finite = candidate_velocities(model, state, scratch, env, bdf2)
         aliased = aliasing(model, state, scratch, env)
         rejected = int(0)
@@ -129,7 +138,7 @@ def build(t) -> SimpleNamespace:
                 b = model.elim_order[k]
                 state.q[env, b] = scratch.q_n[env, b]
         else:
-            commit(model, state, scratch, env)
+            commit(model, state, scratch, env, force_scale, converged)
         return finite, aliased, rejected
 
     @wp.func

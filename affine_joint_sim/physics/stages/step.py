@@ -61,7 +61,8 @@ def build(t) -> SimpleNamespace:
                 full = scratch.near_full[env]
                 if restart == 0 and full == 0 and model.integrator == BDF2:
                     restart = impact(model, state, scratch, env)
-        finite, aliased, rejected = finish(model, state, scratch, env, bdf2, full)
+        finite, aliased, rejected = finish(model, state, scratch, env, bdf2, force_scale,
+                                           converged, full)
         if restart > 0 and full == 0:     # the next step is BDF1: BDF2 would carry an
             state.history_ready[env] = 0    # impact's turn on
         if finite == 0:
