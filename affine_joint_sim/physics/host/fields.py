@@ -212,8 +212,8 @@ FIELDS = _fields('model', [
     ('q_prev', 'vec12', EB, 'm, -', 'BDF2 history q_{n-1}'),
     ('v_prev', 'vec12', EB, 'm/s, 1/s', 'BDF2 history v_{n-1}'),
     ('correction', 'vec12', EB, 'm/s², 1/s²', 'how far the last step ended from its '
-     'prediction without the commands, over its force scale: M⁻¹ times the forces besides '
-     'inertia and gravity (Newton\'s start: physics.stages.prediction)'),
+     'warm-started prediction without the commands, over its force scale: M⁻¹ times the '
+     'forces besides inertia and gravity (Newton\'s start: physics.solve.newton)'),
     ('history_ready', 'int32', E, '-', '0: the next step starts afresh: BDF1 under BDF2, '
      'Newton from the prediction without the last correction'),
     ('joint_coordinate', 'scalar', EJ, 'rad | m', 'multi-turn angle or distance x, last step'),
@@ -244,8 +244,8 @@ FIELDS = _fields('model', [
     ('q_n', 'vec12', EB, 'm, -', 'start-of-step state'),
     ('q_tilde', 'vec12', EB, 'm, -', 'predicted state q̃'),
     ('q_start', 'vec12', EB, 'm, -', 'state at the start of a line search'),
-    ('q_predicted', 'vec12', EB, 'm, -', 'this step\'s prediction q̃ without the commands '
-     '(for its correction)'),
+    ('q_predicted', 'vec12', EB, 'm, -', 'this step\'s prediction q̃ without the commands, '
+     'warm-started: what its correction is taken against'),
     ('dq', 'vec12', EB, 'm, -', 'Newton direction'),
     ('q_before', 'vec12', EB, 'm, -', 'the iterate before a full step taken unchecked (without '
      'contact: physics.solve.newton)'),

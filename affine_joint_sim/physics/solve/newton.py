@@ -310,8 +310,10 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def newton(model: Model, state: State, control: Control, scratch: Scratch, env: int,
-               kinetic_scale: scalar, bdf2: int):
-        """Minimise E from q̃ without the commands' push (scratch.q_start, see ``predict``).
+               kinetic_scale: scalar, bdf2: int, force_scale: scalar):
+        """Minimise E from q̃ without the commands' push (scratch.q_start, see ``predict``),
+        warm-started (kept in scratch.q_predicted), plus ``force_scale`` [s²] times the last
+        step's correction where there is one (docs/physics.md#newton-start).
         Returns (iterations, halvings, line-search failures, converged, residual [m/s],
         inner iterations and stalls of the coupled solve, Hessians assembled and factored,
         gradients tried on the last factors, energies evaluated); the result is in
@@ -325,6 +327,12 @@ def build(t) -> SimpleNamespace:
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
+            scratch.q_predicted[env, b] = q[env, b]
+            # and the last step's forces besides inertia and gravity, applied once more
+            if state.history_ready[env] != 0 and model.body_resolves_turns[b] != 0:
+                q[env, b] += force_scale * state.correction[env, b]
+                if model.warm_start != 0:
+                    q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
         compare = int(0)        # a resting body: q_n where it is lower in E
         if wp.static(with_contact):
             # from q_n (which touches nothing) where the prediction cannot be reached, or

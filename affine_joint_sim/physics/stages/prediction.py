@@ -4,7 +4,8 @@ BDF1: q̃ = q_n + dt v_n + dt² a_g. BDF2: q̃ = 4/3 q_n − 1/3 q_{n−1} + 2dt
 + 4/9 dt² a_g; it starts with one BDF1 step (the first, and the first after a reset), and steps
 with a contact they cannot resolve are BDF1 (docs/physics.md#impacts). The joint commands are
 added afterwards by the command stage with the same force scale. Newton starts from the
-prediction without them plus the last step's correction (docs/physics.md#newton-start).
+prediction without them, warm-started, plus the last step's correction
+(docs/physics.md#newton-start).
 """
 
 import math
@@ -45,12 +46,9 @@ def build(t) -> SimpleNamespace:
     @wp.func
     def predict(model: Model, state: State, scratch: Scratch, env: int, bdf2: int,
                 force_scale: scalar):
-        """q_n and q̃ (with gravity) of every free body into scratch (q̃ twice: q_tilde, which
-        the commands move next, and q_predicted), and Newton's start into scratch.q_start: q̃
-        plus force_scale times the last step's correction (state.correction, where
-        state.history_ready: the last step's forces besides inertia and gravity, applied
-        again), else q̃; q̃ too for a body whose turns the precision does not resolve
-        (model.body_resolves_turns: its correction is rounding noise)."""
+        """q_n and q̃ (with gravity) of every free body into scratch, and q̃ again into
+        scratch.q_start: Newton starts from there (and the last step's correction), before
+        the commands move q̃."""
         dt = model.dt
         gravity = vec12()
         if model.has_gravity != 0:
@@ -67,9 +65,6 @@ def build(t) -> SimpleNamespace:
                                            + force_scale * gravity)
             else:
                 scratch.q_tilde[env, b] = qn + dt * state.v[env, b] + force_scale * gravity
-            scratch.q_predicted[env, b] = scratch.q_tilde[env, b]
             scratch.q_start[env, b] = scratch.q_tilde[env, b]
-            if state.history_ready[env] != 0 and model.body_resolves_turns[b] != 0:
-                scratch.q_start[env, b] += force_scale * state.correction[env, b]
 
     return SimpleNamespace(integrator_scales=integrator_scales, predict=predict)

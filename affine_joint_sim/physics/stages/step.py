@@ -53,7 +53,8 @@ def build(t) -> SimpleNamespace:
         inner, stalls, hessians, tries, energies = int(0), int(0), int(0), int(0), int(0)
         if unresolved >= 0:
             (iterations, halvings, failures, converged, residual, inner, stalls, hessians, tries,
-             energies) = newton(model, state, control, scratch, env, kinetic_scale, bdf2)
+             energies) = newton(model, state, control, scratch, env, kinetic_scale, bdf2,
+                                force_scale)
         full = int(0)
         restart = unresolved
         if wp.static(with_contact):
