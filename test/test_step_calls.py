@@ -2,10 +2,10 @@
 ``gradient_tries`` (a gradient solved on the last factors, the convergence check that spares a
 Hessian), ``energies`` and, with contact, ``near_gathers``. A robot's usual step factors once
 and evaluates no energy (from the last step's correction its first update ends it), nor does
-a step with contact that converges on its first update (a resting body's compares E at q_n
-and at its start); where friction is loaded the last factors are never tried (they could not
-end Newton); a contact scene gathers its near list at its first step and again only where a
-body outruns its margin."""
+a step with contact that converges on its first update (a resting body's first step
+compares E at q_n and at its start); where friction is loaded the last factors are never
+tried (they could not end Newton); a contact scene gathers its near list at its first step
+and again only where a body outruns its margin."""
 
 import numpy as np
 
@@ -50,6 +50,11 @@ def test_a_step_with_contact_that_converges_on_its_first_update_evaluates_no_ene
     sim = _resting_box(0.5)
     sim.step()
     assert _calls(sim)[3] >= 2      # resting: E at q_n and at the prediction, compared
+    for _ in range(10):     # settled onto its resting gap
+        sim.step()
+    for _ in range(20):     # from the last step's correction, which carries its support
+        sim.step()
+        assert _calls(sim) == (1, 1, 0, 0)
 
 
 def test_loaded_friction_spares_the_check_on_the_last_factors():
@@ -60,7 +65,7 @@ def test_loaded_friction_spares_the_check_on_the_last_factors():
         for _ in range(100):
             sim.step()
             iterations, fresh, tried, energies = _calls(sim)
-            assert fresh + tried >= iterations and energies >= 1
+            assert fresh + tried >= iterations
             tries += tried
             hessians += fresh
         counts[mu] = tries, hessians

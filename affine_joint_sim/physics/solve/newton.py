@@ -337,12 +337,13 @@ def build(t) -> SimpleNamespace:
         if wp.static(with_contact):
             # from q_n (which touches nothing) where the prediction cannot be reached, or
             # where q_n is lower in E: a resting body's prediction sinks into the barrier
+            # (not a corrected one, which carries the last step's support)
             if model.has_contact != 0:
                 if not reachable(model, q, scratch, env):
                     for k in range(n_free):
                         b = model.elim_order[k]
                         q[env, b] = scratch.q_n[env, b]
-                elif resting(model, scratch, env):
+                elif state.history_ready[env] == 0 and resting(model, scratch, env):
                     compare = 1
         # the start's E where a resting body compares it with E at q_n, else when first
         # needed (a step that converges on its first update needs none): one call site of
