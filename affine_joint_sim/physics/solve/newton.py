@@ -322,6 +322,7 @@ def build(t) -> SimpleNamespace:
         n_free = model.elim_order.shape[0]
         dt = model.dt
         prepare_limit_reach(model, state, scratch, env)     # before any energy of this step
+        uncorrected = int(0)    # bodies starting from their prediction alone
         for k in range(n_free):
             b = model.elim_order[k]
             q[env, b] = scratch.q_start[env, b]      # q̃ before the commands (prediction)
@@ -333,17 +334,19 @@ def build(t) -> SimpleNamespace:
                 q[env, b] += force_scale * state.correction[env, b]
                 if model.warm_start != 0:
                     q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
+            else:
+                uncorrected += 1
         compare = int(0)        # a resting body: q_n where it is lower in E
         if wp.static(with_contact):
             # from q_n (which touches nothing) where the prediction cannot be reached, or
             # where q_n is lower in E: a resting body's prediction sinks into the barrier
-            # (not a corrected one, which carries the last step's support)
+            # (not a corrected start, which carries the last step's support)
             if model.has_contact != 0:
                 if not reachable(model, q, scratch, env):
                     for k in range(n_free):
                         b = model.elim_order[k]
                         q[env, b] = scratch.q_n[env, b]
-                elif state.history_ready[env] == 0 and resting(model, scratch, env):
+                elif uncorrected > 0 and resting(model, scratch, env):
                     compare = 1
         # the start's E where a resting body compares it with E at q_n, else when first
         # needed (a step that converges on its first update needs none): one call site of
