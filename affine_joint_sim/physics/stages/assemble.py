@@ -113,9 +113,10 @@ def build(t) -> SimpleNamespace:
         return untrusted
 
     # each out of line (physics.stages.out_of_line): inlined together into the assembly,
-    # their 12×12 blocks took 30 KB of its stack frame there (float64)
-    add_nonlinear_blocks = apart(t, add_nonlinear_blocks)
-    add_coordinate_terms = apart(t, add_coordinate_terms)
+    # their 12×12 blocks took 30 KB of its stack frame there (float64); called per joint,
+    # their bodies are left to the compiler
+    add_nonlinear_blocks = apart(t, add_nonlinear_blocks, inline_body=False)
+    add_coordinate_terms = apart(t, add_coordinate_terms, inline_body=False)
 
     @wp.func
     def add_state_blocks(model: Model, state: State, control: Control,
