@@ -63,7 +63,7 @@ _NEAR_FULL = PROBLEM_COLUMNS.index('near_full')
 # the Scratch arrays sized by the near lists' room (physics.host.fields ``near``): grown together
 _NEAR_ARRAYS = tuple(f.name for f in fields_of('scratch') if 'near' in f.shape)
 # What a rebuilt Stepper (spawn, delete) carries over, by the rows of State they are.
-_BODY_ROWS = ('q', 'v', 'q_prev', 'v_prev', 'correction')
+_BODY_ROWS = ('q', 'v', 'q_prev', 'v_prev', 'correction', 'correction_prev')
 _JOINT_ROWS = ('joint_coordinate', 'joint_coordinate_prev', 'joint_position', 'joint_velocity',
                'joint_effort')
 _ENV_ROWS = ('history_ready', 'nearest_seen', 'most_contacts')

@@ -1,7 +1,7 @@
-"""Newton (physics.solve.newton): the start from the last step's correction against runs converged
-tightly; the warm start against a NumPy polar decomposition; updates that follow turns against
-the matrix exponential; where it stops when rounding, not the tolerance, limits an update;
-near-massless links converge."""
+"""Newton (physics.solve.newton): the start from the last step's correction, extrapolated where it
+changes smoothly, against runs converged tightly; the warm start against a NumPy polar
+decomposition; updates that follow turns against the matrix exponential; where it stops when
+rounding, not the tolerance, limits an update; near-massless links converge."""
 
 import warnings
 
@@ -10,22 +10,24 @@ import pytest
 
 from affine_joint_sim.chain import chain_scene
 from affine_joint_sim.physics.evaluate import Stages
+from affine_joint_sim.resources import scene_path
 from affine_joint_sim.sim_warnings import SimulationWarning
 from affine_joint_sim.stepper import Stepper
 from helpers.physics import arm_with_fingers, random_rotation
 from test_joints import every_joint_type
 
 
-def _swinging_chain(tol: float, integrator: str):
-    """Three links released at 0.5 rad under 1 N·m at the first joint, 0.5 s at dt 1e-3:
-    (angles of every step, (Newton iterations, Hessians) of every step)."""
+def _swinging_chain(tol: float, integrator: str, ramp: float = 0.0):
+    """Three links released at 0.5 rad under 1 N·m at the first joint, growing by ``ramp``
+    N·m a step, 0.5 s at dt 1e-3: (angles of every step, (Newton iterations, Hessians) of
+    every step)."""
     scene = chain_scene(3, dt=1e-3, integrator=integrator, angle=0.5)
     data = scene.model_dump(exclude_none=True)
     data['solver'] = dict(data.get('solver', {}), newton_tol=tol)
     sim = Stepper(type(scene).from_dict(data))
-    sim.set_torque(sim.command_joint_names[0], 1.0)
     angles, calls = [], []
-    for _ in range(500):
+    for k in range(500):
+        sim.set_torque(sim.command_joint_names[0], 1.0 + ramp * k)
         sim.step()
         angles.append(sim.angles.copy())
         calls.append((sim.stats['newton_iterations'], sim.stats['hessians']))
@@ -43,6 +45,30 @@ def test_newton_starts_from_the_last_correction_and_its_first_update_ends_the_st
     assert sum(c == (1, 1) for c in calls) >= 490
     assert np.abs(angles - tight).max() < 1e-6
     assert np.abs(angles[-1] - angles[0]).max() > 0.05      # it swung
+
+
+@pytest.mark.parametrize('integrator', ['bdf1', 'bdf2'])
+def test_a_steadily_changing_correction_is_extrapolated(integrator):
+    # the torque grows 0.01 N·m a step under a tolerance ten times tighter: the last
+    # correction alone is off by its change (0 of 500 steps ended on the first update,
+    # 2026-12-05), 2 c_n − c_{n−1} is not
+    angles, calls = _swinging_chain(1e-5, integrator, ramp=0.01)
+    tight, _ = _swinging_chain(1e-10, integrator, ramp=0.01)
+    assert sum(c == (1, 1) for c in calls) >= 480
+    assert np.abs(angles - tight).max() < 1e-6
+
+
+def test_a_correction_that_jumps_is_not_extrapolated():
+    # the six-joint arm falling from its bent pose at dt 0.01, its wrist spinning up: where a
+    # correction changed by more than a fifth of itself the start takes it alone (extrapolated
+    # there too, steps 66 and 71 ran into the 32-iteration cap without converging)
+    sim = Stepper(scene_path('arm6'))
+    iterations = []
+    for _ in range(100):
+        sim.step()
+        assert sim.stats['converged']
+        iterations.append(sim.stats['newton_iterations'])
+    assert max(iterations) <= 8
 
 
 def _polar(a):

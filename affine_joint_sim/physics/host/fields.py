@@ -214,6 +214,8 @@ FIELDS = _fields('model', [
     ('correction', 'vec12', EB, 'm/s², 1/s²', 'how far the last step ended from its '
      'warm-started prediction without the commands, over its force scale: M⁻¹ times the '
      'forces besides inertia and gravity (Newton\'s start: physics.solve.newton)'),
+    ('correction_prev', 'vec12', EB, 'm/s², 1/s²', 'the correction of the step before the '
+     'last (Newton\'s start extrapolates the two where they change smoothly)'),
     ('history_ready', 'int32', E, '-', '0: the next step starts afresh: BDF1 under BDF2, '
      'Newton from the prediction without the last correction'),
     ('joint_coordinate', 'scalar', EJ, 'rad | m', 'multi-turn angle or distance x, last step'),

@@ -55,6 +55,7 @@ def build(t) -> SimpleNamespace:
     friction_loaded = t.friction_loaded
     prepare_limit_reach = t.prepare_limit_reach
     max_turn = scalar(0.5)      # rad: the most one Newton update may turn a body
+    smooth = scalar(0.2)        # the most a correction may change a step and be extrapolated
 
     @wp.func
     def warm_start(q_tilde: vec12, q_n: vec12):
@@ -309,6 +310,18 @@ def build(t) -> SimpleNamespace:
         return clear and nearest > zero
 
     @wp.func
+    def extrapolated(state: State, env: int, b: int):
+        """Body b's correction for this step [m/s², 1/s²]: the last one c_n extrapolated
+        linearly, 2 c_n − c_{n−1}, where it changed by at most ``smooth`` of itself since the
+        step before (forces changing steadily: a robot speeding up), else c_n alone (an impact,
+        a contact made or lost, a limit entered: docs/physics.md#newton-start)."""
+        c = state.correction[env, b]
+        change = c - state.correction_prev[env, b]
+        if wp.dot(change, change) <= smooth * smooth * wp.dot(c, c):
+            c = c + change
+        return c
+
+    @wp.func
     def newton(model: Model, state: State, control: Control, scratch: Scratch, env: int,
                kinetic_scale: scalar, bdf2: int, force_scale: scalar):
         """Minimise E from q̃ without the commands' push (scratch.q_start, see ``predict``),
@@ -329,9 +342,10 @@ def build(t) -> SimpleNamespace:
             if model.warm_start != 0:
                 q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
             scratch.q_predicted[env, b] = q[env, b]
-            # and the last step's forces besides inertia and gravity, applied once more
+            # and the last step's forces besides inertia and gravity, applied once more,
+            # extrapolated where they change smoothly
             if state.history_ready[env] != 0 and model.body_resolves_turns[b] != 0:
-                q[env, b] += force_scale * state.correction[env, b]
+                q[env, b] += force_scale * extrapolated(state, env, b)
                 if model.warm_start != 0:
                     q[env, b] = warm_start(q[env, b], scratch.q_n[env, b])
             else:

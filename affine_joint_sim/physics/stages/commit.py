@@ -3,7 +3,8 @@
 A step whose state is non-finite, or in which a joint turns more than 0.9π (its multi-turn
 angle would alias), is rejected: that environment keeps its start-of-step state and flags the
 step. Otherwise velocities follow the integrator, the BDF2 history shifts, the correction of
-the step's prediction is kept for the next step's Newton start and the joint coordinates
+the step's prediction is kept for the next step's Newton start (with the step before's) and
+the joint coordinates
 advance by their unwrapped increments (docs/physics.md#end-of-step,
 docs/physics.md#newton-start, docs/physics.md#joint-coordinate).
 """
@@ -99,8 +100,9 @@ def build(t) -> SimpleNamespace:
                converged: int):
         """Accept the step: velocities, history and the correction of its prediction (over
         ``force_scale``, the step's [s²]; none where Newton did not converge, whose last
-        iterate is no solution to carry on), joint coordinates (a wrapped angle is reported
-        for revolute joints in WRAPPED mode, the coordinate otherwise)."""
+        iterate is no solution to carry on), the step before's kept beside it, joint
+        coordinates (a wrapped angle is reported for revolute joints in WRAPPED mode, the
+        coordinate otherwise)."""
         for k in range(model.elim_order.shape[0]):
             b = model.elim_order[k]
             state.q_prev[env, b] = scratch.q_n[env, b]
@@ -109,6 +111,10 @@ def build(t) -> SimpleNamespace:
             correction = vec12()
             if converged != 0:
                 correction = (state.q[env, b] - scratch.q_predicted[env, b]) / force_scale
+            # the step before's, or where this step started afresh this one's (no change yet)
+            state.correction_prev[env, b] = correction
+            if state.history_ready[env] != 0:
+                state.correction_prev[env, b] = state.correction[env, b]
             state.correction[env, b] = correction
         state.history_ready[env] = 1
         for k in range(model.joint_parent.shape[0]):
