@@ -62,13 +62,17 @@ def test_a_correction_that_jumps_is_not_extrapolated():
     # the six-joint arm falling from its bent pose at dt 0.01, its wrist spinning up: where a
     # correction changed by more than a fifth of itself the start takes it alone (extrapolated
     # there too, steps 66 and 71 ran into the 32-iteration cap without converging)
-    sim = Stepper(scene_path('arm6'))
+    assert max(_converged_iterations(Stepper(scene_path('arm6')), 100)) <= 8
+
+
+def _converged_iterations(sim: Stepper, steps: int) -> list:
+    """Newton iterations of each of ``steps`` steps of ``sim``, every one converged."""
     iterations = []
-    for _ in range(100):
+    for _ in range(steps):
         sim.step()
         assert sim.stats['converged']
         iterations.append(sim.stats['newton_iterations'])
-    assert max(iterations) <= 8
+    return iterations
 
 
 def _polar(a):
@@ -221,9 +225,4 @@ def test_near_massless_links_converge():
     # so every step ran to newton_max_iter (50 of 50) creeping a few milliradians an iteration
     sim = Stepper(arm_with_fingers('float64'), on_problem=lambda message: None)
     sim.set_torque('shoulder', 1.0)
-    iterations = []
-    for _ in range(50):
-        sim.step()
-        assert sim.stats['converged']
-        iterations.append(sim.stats['newton_iterations'])
-    assert max(iterations) <= 8
+    assert max(_converged_iterations(sim, 50)) <= 8
