@@ -98,14 +98,15 @@ def build(t) -> SimpleNamespace:
 
     @wp.func
     def backward_solve(low: mat12, inverse: vec12, y: vec12):
-        """x = L⁻ᵀ y (``inverse``: 1/diag(L))."""
+        """x = L⁻ᵀ y (``inverse``: 1/diag(L)), a row of L at a time from the last: y_i less
+        L[k, i] x_k in the order the x_k become known, so the newest enters last and each
+        row waits on one subtraction, not on a dot product."""
         x = vec12()
-        for ii in range(12):
-            i = 11 - ii
-            r = y[i]
-            for k in range(i + 1, 12):
-                r -= low[k, i] * x[k]
-            x[i] = r * inverse[i]
+        r = y
+        for kk in range(12):
+            k = 11 - kk
+            x[k] = r[k] * inverse[k]
+            r = r - x[k] * low[k]
         return x
 
     @wp.func
