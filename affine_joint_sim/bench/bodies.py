@@ -12,11 +12,11 @@ cube's slip in the hand over a 12 cm lift, against 0). With the extra ``compare`
 and the piles from the same boxes, and the arm's grasp from the same URDF.
 
 Per scene: µs/step (mean; the piles' over their last second), Newton and inner (conjugate
-gradient) iterations per step, contacts at the end, the nearest distance (ours must stay > 0;
-MuJoCo's deepest contact, negative where it penetrates) and the scene's error. The cost's
-growth: the exponent of µs/step, and of µs per Newton iteration, against the piles' contacts
-(least squares in log-log). Then where a step of the largest pile and of the grasp goes
-(``bench.stages``). Writes bodies.md and bodies.csv.
+gradient) iterations per step over the same steps, contacts at the end, the nearest distance
+(ours must stay > 0; MuJoCo's deepest contact, negative where it penetrates) and the scene's
+error. The cost's growth: the exponent of µs/step, and of µs per Newton iteration, against
+the piles' contacts (least squares in log-log). Then where a step of the largest pile and of
+the grasp goes (``bench.stages``). Writes bodies.md and bodies.csv.
 """
 
 import math
@@ -135,7 +135,7 @@ def _momentum(masses, velocities) -> np.ndarray:
 
 def _ours(name: str, spec: dict, duration: float, timed_from: float) -> dict:
     """Run a scene for ``duration`` [s]: µs/step over the steps after ``timed_from`` [s],
-    iterations, contacts, nearest distance and the scene's quantity."""
+    iterations over the same steps, contacts, nearest distance and the scene's quantity."""
     from affine_joint_sim.scene import Scene
     from affine_joint_sim.stepper import Stepper
 
@@ -151,10 +151,10 @@ def _ours(name: str, spec: dict, duration: float, timed_from: float) -> dict:
         sim.step()
         elapsed = time.perf_counter() - began
         stats = sim.stats
-        if k * spec['dt'] >= timed_from:
+        if k * spec['dt'] >= timed_from:     # the iterations over the steps timed
             times.append(elapsed)
-        newton.append(stats['newton_iterations'])
-        inner.append(stats['inner_iterations'])
+            newton.append(stats['newton_iterations'])
+            inner.append(stats['inner_iterations'])
         nearest = min(nearest, stats['min_distance'])
         drift = max(drift, float(np.abs(_momentum(masses, sim.body_qdot) - start_p).max()))
     q = sim.body_q
@@ -300,9 +300,9 @@ def run(results: Path, devices: list[str], settings: Settings) -> None:
     text = ('## Bodies touching each other: float64, one CPU core\n\n'
             + ('' if peer else "MuJoCo is not installed (extra 'compare'): no MuJoCo "
                'columns.\n\n')
-            + f'µs: mean over the steps (the piles: over their last '
-            f'{settings.pile_duration / 2:g} s), median of {settings.repeats} runs. Contacts '
-            'at the end: ours counts primitive pairs closer than d̂ (a face on a face is '
+            + f'µs and iterations: means over the steps (the piles: over their last '
+            f'{settings.pile_duration / 2:g} s), µs the median of {settings.repeats} runs. '
+            'Contacts at the end: ours counts primitive pairs closer than d̂ (a face on a face is '
             "several point–face and edge–edge pairs), MuJoCo's its contacts. Nearest: the "
             'smallest distance of any pair over the run (ours, > 0: nothing penetrated) or the '
             "deepest contact (MuJoCo's; negative: penetration).\n\n"
