@@ -4,8 +4,7 @@ A step whose state is non-finite, or in which a joint turns more than 0.9π (its
 angle would alias), is rejected: that environment keeps its start-of-step state and flags the
 step. Otherwise velocities follow the integrator, the BDF2 history shifts, the correction of
 the step's prediction is kept for the next step's Newton start (with the step before's) and
-the joint coordinates
-advance by their unwrapped increments (docs/physics.md#end-of-step,
+the joint coordinates advance by their unwrapped increments (docs/physics.md#end-of-step,
 docs/physics.md#newton-start, docs/physics.md#joint-coordinate).
 """
 
@@ -112,9 +111,10 @@ def build(t) -> SimpleNamespace:
             if converged != 0:
                 correction = (state.q[env, b] - scratch.q_predicted[env, b]) / force_scale
             # the step before's, or where this step started afresh this one's (no change yet)
-            state.correction_prev[env, b] = correction
+            before = correction
             if state.history_ready[env] != 0:
-                state.correction_prev[env, b] = state.correction[env, b]
+                before = state.correction[env, b]
+            state.correction_prev[env, b] = before
             state.correction[env, b] = correction
         state.history_ready[env] = 1
         for k in range(model.joint_parent.shape[0]):
